@@ -1,0 +1,33 @@
+// Conversions between ROS messages and the ROS-free core types.
+#pragma once
+
+#include <Eigen/Core>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include <opencv2/core.hpp>
+
+#include "homography_teach_repeat/HomographyStamped.h"
+#include "homography_teach_repeat/pinhole_camera.h"
+#include "homography_teach_repeat/robust_homography.h"
+#include "homography_teach_repeat/status.h"
+
+namespace homography_teach_repeat {
+namespace ros_conversions {
+
+// CameraInfo -> calibration record (K from camera_info.K, D and distortion_model as given).
+CameraCalibration toCalibration(const sensor_msgs::CameraInfo& info);
+
+// Validated camera from a CameraInfo: kInvalidInput with PinholeCamera's message when the
+// calibration is missing (all-zero K), zero/negative/NaN focal length, unknown model, ...
+Expected<PinholeCamera> toPinholeCamera(const sensor_msgs::CameraInfo& info);
+
+// Image message -> 8-bit grey or BGR cv::Mat, sharing the buffer where possible. kInvalidInput
+// naming the encoding for anything cv_bridge cannot turn into mono8/bgr8, and for empty images.
+Expected<cv::Mat> toCvImage(const sensor_msgs::ImageConstPtr& image);
+
+HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,
+                        const std_msgs::Header& header, const std::string& reference);
+
+}  // namespace ros_conversions
+}  // namespace homography_teach_repeat

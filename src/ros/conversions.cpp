@@ -1,0 +1,89 @@
+#include "homography_teach_repeat/ros/conversions.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include <stdexcept>
+
+namespace homography_teach_repeat {
+namespace ros_conversions {
+
+CameraCalibration toCalibration(const sensor_msgs::CameraInfo& info) {
+  CameraCalibration c;
+  c.width = static_cast<int>(info.width);
+  c.height = static_cast<int>(info.height);
+  c.fx = info.K[0];
+  c.fy = info.K[4];
+  c.cx = info.K[2];
+  c.cy = info.K[5];
+  c.distortion_model = info.distortion_model;
+  c.distortion = info.D;
+  // camera_info commonly carries D = [0, 0, 0, 0, 0] with an empty model name.
+  if (c.distortion_model.empty()) {
+    bool all_zero = true;
+    for (double d : c.distortion) all_zero = all_zero && d == 0.0;
+    if (all_zero) c.distortion.clear();
+  }
+  return c;
+}
+
+Expected<PinholeCamera> toPinholeCamera(const sensor_msgs::CameraInfo& info) {
+  try {
+    return PinholeCamera(toCalibration(info));
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, std::string("camera_info: ") + e.what());
+  }
+}
+
+Expected<cv::Mat> toCvImage(const sensor_msgs::ImageConstPtr& image) {
+  namespace enc = sensor_msgs::image_encodings;
+  if (image->width == 0 || image->height == 0 || image->data.empty()) {
+    return Status(StatusCode::kInvalidInput, "empty image (" + std::to_string(image->width) + "x" +
+                                                 std::to_string(image->height) + ")");
+  }
+  if (static_cast<std::size_t>(image->step) * image->height > image->data.size()) {
+    return Status(StatusCode::kInvalidInput,
+                  "truncated image: step*height = " +
+                      std::to_string(static_cast<std::size_t>(image->step) * image->height) +
+                      " bytes but only " + std::to_string(image->data.size()) + " in data");
+  }
+  const std::string& encoding = image->encoding;
+  const bool mono = encoding == enc::MONO8 || encoding == enc::TYPE_8UC1;
+  const bool colour = encoding == enc::BGR8 || encoding == enc::RGB8 || encoding == enc::BGRA8 ||
+                      encoding == enc::RGBA8;
+  if (!mono && !colour) {
+    return Status(StatusCode::kInvalidInput,
+                  "unsupported image encoding '" + encoding +
+                      "' (accepted: mono8, 8UC1, bgr8, rgb8, bgra8, rgba8)");
+  }
+  const int bytes_per_pixel = enc::numChannels(encoding) * (enc::bitDepth(encoding) / 8);
+  if (image->step < image->width * static_cast<uint32_t>(bytes_per_pixel)) {
+    return Status(StatusCode::kInvalidInput, "image step " + std::to_string(image->step) +
+                                                 " is smaller than a row of " + encoding);
+  }
+  try {
+    const auto cv_image = cv_bridge::toCvShare(image, mono ? enc::MONO8 : enc::BGR8);
+    if (cv_image->image.empty()) return Status(StatusCode::kInvalidInput, "empty image");
+    return cv_image->image;
+  } catch (const cv_bridge::Exception& e) {
+    return Status(StatusCode::kInvalidInput,
+                  "cannot convert image with encoding '" + encoding + "': " + e.what());
+  }
+}
+
+HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,
+                        const std_msgs::Header& header, const std::string& reference) {
+  HomographyStamped msg;
+  msg.header = header;
+  msg.reference = reference;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) msg.h[static_cast<std::size_t>(3 * r + c)] = homography.H(r, c);
+  }
+  msg.matches = static_cast<uint32_t>(tentative_matches);
+  msg.inliers = static_cast<uint32_t>(homography.inliers.size());
+  msg.rms_transfer_error_px = homography.rms_transfer_error_px;
+  return msg;
+}
+
+}  // namespace ros_conversions
+}  // namespace homography_teach_repeat
