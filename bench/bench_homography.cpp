@@ -36,7 +36,7 @@ void BM_NormalizedDlt(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalizedDlt)->Arg(10)->Arg(50)->Arg(100)->Arg(200)->Arg(500)->Unit(benchmark::kMicrosecond);
 
-void BM_RobustMagsac30PercentOutliers(benchmark::State& state) {
+void BM_RobustDefault30PercentOutliers(benchmark::State& state) {
   const auto matches = makeMatches(static_cast<int>(state.range(0)), 0.3);
   htr::RobustHomographyOptions options;
   for (auto _ : state) {
@@ -44,7 +44,7 @@ void BM_RobustMagsac30PercentOutliers(benchmark::State& state) {
     benchmark::DoNotOptimize(htr::estimateHomographyRobust(matches, options));
   }
 }
-BENCHMARK(BM_RobustMagsac30PercentOutliers)->Arg(100)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RobustDefault30PercentOutliers)->Arg(100)->Arg(500)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

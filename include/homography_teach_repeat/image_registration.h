@@ -53,4 +53,10 @@ class ImageRegistration {
   std::optional<ImageFeatures> reference_;
 };
 
+// Visualisation of a registration on the current image (BGR copy): the border of the reference
+// image mapped by H (blue), the inlier matches (green) and the rejected tentative matches (red).
+// H maps undistorted pixels, so with a distorted camera the overlay is only approximate.
+cv::Mat drawRegistration(const cv::Mat& current_image, const RegistrationResult& result,
+                         const cv::Size& reference_size);
+
 }  // namespace homography_teach_repeat

@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/image_registration.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <cmath>
 #include <stdexcept>
 
@@ -71,6 +73,34 @@ Expected<RegistrationResult> ImageRegistration::registerImage(const cv::Mat& ima
   if (!homography) return homography.status();
   result.homography = std::move(homography.value());
   return result;
+}
+
+cv::Mat drawRegistration(const cv::Mat& current_image, const RegistrationResult& result,
+                         const cv::Size& reference_size) {
+  cv::Mat canvas;
+  if (current_image.channels() == 1) {
+    cv::cvtColor(current_image, canvas, cv::COLOR_GRAY2BGR);
+  } else {
+    canvas = current_image.clone();
+  }
+  const auto toPoint = [](const Eigen::Vector2d& p) { return cv::Point2d(p.x(), p.y()); };
+  std::vector<bool> is_inlier(result.matches.size(), false);
+  for (int i : result.homography.inliers) is_inlier[static_cast<std::size_t>(i)] = true;
+  for (std::size_t i = 0; i < result.matches.size(); ++i) {
+    const cv::Scalar colour = is_inlier[i] ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 0, 220);
+    cv::circle(canvas, toPoint(result.matches[i].current), 3, colour, 1, cv::LINE_AA);
+  }
+  const double w = reference_size.width - 1.0;
+  const double h = reference_size.height - 1.0;
+  std::vector<cv::Point> border;
+  for (const Eigen::Vector2d& corner :
+       {Eigen::Vector2d(0, 0), Eigen::Vector2d(w, 0), Eigen::Vector2d(w, h), Eigen::Vector2d(0, h)}) {
+    const Eigen::Vector2d mapped = applyHomography(result.homography.H, corner);
+    if (!mapped.allFinite() || mapped.cwiseAbs().maxCoeff() > 1e6) return canvas;
+    border.emplace_back(cvRound(mapped.x()), cvRound(mapped.y()));
+  }
+  cv::polylines(canvas, border, true, cv::Scalar(255, 80, 0), 2, cv::LINE_AA);
+  return canvas;
 }
 
 }  // namespace homography_teach_repeat

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <optional>
+#include <random>
 #include <stdexcept>
 
 namespace homography_teach_repeat {
@@ -88,29 +91,26 @@ void RobustHomographyOptions::validate() const {
   if (max_iterations < 1) throw std::invalid_argument("max_iterations must be >= 1");
   if (min_inliers < 4) throw std::invalid_argument("min_inliers must be >= 4");
   if (max_refit_rounds < 1) throw std::invalid_argument("max_refit_rounds must be >= 1");
+  if (hypotheses < 1) throw std::invalid_argument("hypotheses must be >= 1");
   if (!(min_adaptive_threshold_px > 0.0) || min_adaptive_threshold_px > inlier_threshold_px) {
     throw std::invalid_argument("min_adaptive_threshold_px must be in (0, inlier_threshold_px]");
   }
 }
 
-Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& matches,
-                                                          const RobustHomographyOptions& options) {
-  options.validate();
-  if (matches.size() < 4) {
-    return Status(StatusCode::kTooFewPoints,
-                  "a homography needs at least 4 matches, got " + std::to_string(matches.size()));
-  }
-  std::vector<cv::Point2d> reference, current;
-  reference.reserve(matches.size());
-  current.reserve(matches.size());
-  for (std::size_t i = 0; i < matches.size(); ++i) {
-    if (!matches[i].reference.allFinite() || !matches[i].current.allFinite()) {
-      return Status(StatusCode::kInvalidInput, "match " + std::to_string(i) + " is not finite");
-    }
-    reference.emplace_back(matches[i].reference.x(), matches[i].reference.y());
-    current.emplace_back(matches[i].current.x(), matches[i].current.y());
-  }
+namespace {
 
+// One selector run on the matches in the order `order`, then the iterated normalised-DLT refit.
+Expected<RobustHomographyResult> selectAndRefit(const PointMatches& matches,
+                                                const std::vector<int>& order,
+                                                const RobustHomographyOptions& options) {
+  std::vector<cv::Point2d> reference, current;
+  reference.reserve(order.size());
+  current.reserve(order.size());
+  for (int i : order) {
+    const PointMatch& m = matches[static_cast<std::size_t>(i)];
+    reference.emplace_back(m.reference.x(), m.reference.y());
+    current.emplace_back(m.current.x(), m.current.y());
+  }
   cv::Mat mask;
   const cv::Mat selector_h =
       cv::findHomography(reference, current, toOpenCvMethod(options.method),
@@ -120,9 +120,10 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
     return Status(StatusCode::kNoConsensus, "the inlier selector found no homography");
   }
   std::vector<int> inliers;
-  for (int i = 0; i < mask.rows; ++i) {
-    if (mask.at<unsigned char>(i) != 0) inliers.push_back(i);
+  for (int k = 0; k < mask.rows; ++k) {
+    if (mask.at<unsigned char>(k) != 0) inliers.push_back(order[static_cast<std::size_t>(k)]);
   }
+  std::sort(inliers.begin(), inliers.end());
 
   RobustHomographyResult result;
   for (int round = 0; round < options.max_refit_rounds; ++round) {
@@ -143,14 +144,55 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
     if (reselected == inliers || round + 1 == options.max_refit_rounds) break;
     inliers = std::move(reselected);
   }
+  const double tau_squared = options.inlier_threshold_px * options.inlier_threshold_px;
   double sum_squared = 0.0;
   for (int i : inliers) {
     const double e = transferError(result.H, matches[static_cast<std::size_t>(i)]);
     sum_squared += e * e;
   }
   result.rms_transfer_error_px = std::sqrt(sum_squared / static_cast<double>(inliers.size()));
+  double cost = 0.0;
+  for (const auto& match : matches) {
+    const double e = transferError(result.H, match);
+    cost += std::isfinite(e) ? std::min(e * e, tau_squared) : tau_squared;
+  }
+  result.msac_cost = cost / (static_cast<double>(matches.size()) * tau_squared);
   result.inliers = std::move(inliers);
   return result;
+}
+
+}  // namespace
+
+Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& matches,
+                                                          const RobustHomographyOptions& options) {
+  options.validate();
+  if (matches.size() < 4) {
+    return Status(StatusCode::kTooFewPoints,
+                  "a homography needs at least 4 matches, got " + std::to_string(matches.size()));
+  }
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    if (!matches[i].reference.allFinite() || !matches[i].current.allFinite()) {
+      return Status(StatusCode::kInvalidInput, "match " + std::to_string(i) + " is not finite");
+    }
+  }
+  std::vector<int> order(matches.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::optional<RobustHomographyResult> best;
+  Status last_failure;
+  for (int hypothesis = 0; hypothesis < options.hypotheses; ++hypothesis) {
+    if (hypothesis > 0) {
+      std::mt19937 rng(static_cast<unsigned>(hypothesis));
+      std::shuffle(order.begin(), order.end(), rng);
+    }
+    auto candidate = selectAndRefit(matches, order, options);
+    if (!candidate) {
+      last_failure = candidate.status();
+      continue;
+    }
+    if (!best || candidate->msac_cost < best->msac_cost) best = std::move(candidate.value());
+  }
+  if (!best) return last_failure;
+  return std::move(*best);
 }
 
 }  // namespace homography_teach_repeat

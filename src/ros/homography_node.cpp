@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/ros/homography_node.h"
 
+#include <cv_bridge/cv_bridge.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include <stdexcept>
@@ -60,7 +61,9 @@ HomographyNode::HomographyNode(const ros::NodeHandle& nh, const ros::NodeHandle&
            registration_.referenceFeatures().keypoints.size(),
            toString(registration_.referenceFeatures().type).c_str());
 
+  reference_size_ = reference.size();
   homography_publisher_ = private_nh_.advertise<HomographyStamped>("homography", 10);
+  debug_image_publisher_ = image_transport::ImageTransport(private_nh_).advertise("debug_image", 1);
   camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1,
                                                         &HomographyNode::onImage, this);
   diagnostics_.setHardwareID("camera");
@@ -94,6 +97,12 @@ void HomographyNode::onImage(const sensor_msgs::ImageConstPtr& image,
   homography_publisher_.publish(ros_conversions::toMsg(result->homography,
                                                        static_cast<int>(result->matches.size()),
                                                        image->header, reference_path_));
+  if (debug_image_publisher_.getNumSubscribers() > 0) {
+    debug_image_publisher_.publish(
+        cv_bridge::CvImage(image->header, "bgr8",
+                           drawRegistration(*cv_image, *result, reference_size_))
+            .toImageMsg());
+  }
   diagnostics_.update();
 }
 

@@ -88,6 +88,37 @@ TEST(ImageRegistration, UndistortsMatchesWithTheCamera) {
   }
 }
 
+TEST(ImageRegistration, DrawsBorderAndMatches) {
+  const cv::Mat reference = test_support::makeTexture(640, 480, 9);
+  const cv::Mat current = test_support::warp(reference, test_support::moderateHomography());
+  ImageRegistration registration{RegistrationOptions{}};
+  ASSERT_TRUE(registration.setReference(reference).isOk());
+  const auto result = registration.registerImage(current);
+  ASSERT_TRUE(result.isOk());
+  const cv::Mat canvas = drawRegistration(current, *result, reference.size());
+  ASSERT_EQ(canvas.type(), CV_8UC3);
+  ASSERT_EQ(canvas.size(), current.size());
+  // The border is a straight line between mapped corners: the midpoint of the mapped bottom edge
+  // is drawn in the border colour (blue channel dominant).
+  const Eigen::Vector2d midpoint =
+      0.5 * (applyHomography(result->homography.H, Eigen::Vector2d(0, 479)) +
+             applyHomography(result->homography.H, Eigen::Vector2d(639, 479)));
+  ASSERT_TRUE(midpoint.x() >= 0 && midpoint.x() < 640 && midpoint.y() >= 0 && midpoint.y() < 480);
+  const cv::Vec3b pixel = canvas.at<cv::Vec3b>(cvRound(midpoint.y()), cvRound(midpoint.x()));
+  EXPECT_GT(pixel[0], 150);
+  EXPECT_LT(pixel[2], 100);
+  // Some inlier marks are green.
+  int green = 0;
+  for (int i : result->homography.inliers) {
+    const Eigen::Vector2d p = result->matches[static_cast<std::size_t>(i)].current;
+    const int row = cvRound(p.y()), col = cvRound(p.x()) + 3;
+    if (col >= canvas.cols) continue;
+    const cv::Vec3b c = canvas.at<cv::Vec3b>(row, col);
+    green += (c[1] > 150 && c[0] < 100 && c[2] < 100) ? 1 : 0;
+  }
+  EXPECT_GT(green, static_cast<int>(result->homography.inliers.size() / 2));
+}
+
 TEST(ImageRegistration, FailsWithoutReferenceAndOnBlankImages) {
   ImageRegistration registration{RegistrationOptions{}};
   EXPECT_FALSE(registration.hasReference());

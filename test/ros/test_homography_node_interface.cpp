@@ -24,10 +24,18 @@ TEST(HomographyNodeInterface, PublishesTheGroundTruthHomography) {
   image_transport::ImageTransport transport(nh);
   image_transport::CameraPublisher camera = transport.advertiseCamera("camera/image_raw", 1);
   HomographyStamped::ConstPtr received;
+  sensor_msgs::ImageConstPtr debug_image;
+  const image_transport::Subscriber debug_subscriber = transport.subscribe(
+      "homography_node/debug_image", 1,
+      [&](const sensor_msgs::ImageConstPtr& msg) { debug_image = msg; });
   const ros::Subscriber subscriber = nh.subscribe<HomographyStamped>(
       "homography_node/homography", 1, [&](const HomographyStamped::ConstPtr& msg) { received = msg; });
   ASSERT_TRUE(test_support::spinUntil(
-      [&] { return camera.getNumSubscribers() > 0 && subscriber.getNumPublishers() > 0; }, 60.0))
+      [&] {
+        return camera.getNumSubscribers() > 0 && subscriber.getNumPublishers() > 0 &&
+               debug_subscriber.getNumPublishers() > 0;
+      },
+      60.0))
       << "homography_node did not connect";
 
   const ros::Time stamp(1234.5);
@@ -39,8 +47,12 @@ TEST(HomographyNodeInterface, PublishesTheGroundTruthHomography) {
     info.header = image->header;
     camera.publish(*image, info);
   };
-  ASSERT_TRUE(test_support::spinUntil([&] { return received != nullptr; }, 180.0, publish, 1.0))
-      << "no homography received";
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] { return received != nullptr && debug_image != nullptr; }, 180.0, publish, 1.0))
+      << "no homography and debug image received";
+  EXPECT_EQ(debug_image->encoding, "bgr8");
+  EXPECT_EQ(debug_image->width, 800u);
+  EXPECT_EQ(debug_image->header.stamp, stamp);
 
   EXPECT_EQ(received->header.frame_id, "camera_optical_frame");
   EXPECT_EQ(received->header.stamp, stamp);

@@ -3,7 +3,9 @@
 //
 // Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber)
 // Publishes:  ~homography (homography_teach_repeat/HomographyStamped), only for successful
-//             estimates; /diagnostics (registration status, inliers, frame age)
+//             estimates; ~debug_image (bgr8: reference border mapped by H, inliers green,
+//             rejected matches red; drawn only while subscribed); /diagnostics (registration
+//             status, inliers, frame age)
 // Parameters: see config/homography_node.yaml
 #pragma once
 
@@ -40,6 +42,8 @@ class HomographyNode {
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
+  image_transport::Publisher debug_image_publisher_;
+  cv::Size reference_size_;
   ros::Publisher homography_publisher_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
