@@ -120,3 +120,19 @@ TEST(RobustHomography, DefaultPrefersTheDominantPlaneOverASecondNearbyPlane) {
   for (int i : result->inliers) from_second += i >= 200 ? 1 : 0;
   EXPECT_LE(from_second, 3);
 }
+
+// The MSAC cost is Σ min(e², τ²) / (n τ²): 0 for a perfect fit, 1 when nothing fits; the outliers
+// of a 30% contaminated set cost one τ² each.
+TEST(RobustHomography, MsacCostCountsOutliersAtTheThreshold) {
+  const PointMatches matches = makeMatches(200, 60, 31);
+  const auto result = estimateHomographyRobust(matches, RobustHomographyOptions());
+  ASSERT_TRUE(result.isOk());
+  EXPECT_GT(result->msac_cost, 0.30);
+  EXPECT_LT(result->msac_cost, 0.30 + 0.70 * (0.6 * 0.6) / (1.5 * 1.5));
+  // More hypotheses can only lower (or keep) the cost of the returned estimate.
+  RobustHomographyOptions one;
+  one.hypotheses = 1;
+  const auto single = estimateHomographyRobust(matches, one);
+  ASSERT_TRUE(single.isOk());
+  EXPECT_LE(result->msac_cost, single->msac_cost);
+}
