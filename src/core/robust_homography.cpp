@@ -26,23 +26,31 @@ int toOpenCvMethod(RobustMethod method) {
   return cv::USAC_DEFAULT;
 }
 
-std::vector<int> selectInliers(const Eigen::Matrix3d& H, const PointMatches& matches,
-                               double threshold_px) {
+// Transfer error of every match under H: computed once per refit round, then shared by the
+// threshold estimate, the re-selection, the RMS and the MSAC cost.
+std::vector<double> transferErrors(const Eigen::Matrix3d& H, const PointMatches& matches) {
+  std::vector<double> errors;
+  errors.reserve(matches.size());
+  for (const auto& match : matches) errors.push_back(transferError(H, match));
+  return errors;
+}
+
+std::vector<int> selectInliers(const std::vector<double>& errors, double threshold_px) {
   std::vector<int> inliers;
-  for (std::size_t i = 0; i < matches.size(); ++i) {
-    if (transferError(H, matches[i]) < threshold_px) inliers.push_back(static_cast<int>(i));
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    if (errors[i] < threshold_px) inliers.push_back(static_cast<int>(i));
   }
   return inliers;
 }
 
 // 95% radius of the 2D transfer error, from the median error of the current inliers.
-double adaptiveThreshold(const Eigen::Matrix3d& H, const PointMatches& matches,
-                         const std::vector<int>& inliers, const RobustHomographyOptions& options) {
-  std::vector<double> errors;
-  errors.reserve(inliers.size());
-  for (int i : inliers) errors.push_back(transferError(H, matches[static_cast<std::size_t>(i)]));
-  auto middle = errors.begin() + static_cast<std::ptrdiff_t>(errors.size() / 2);
-  std::nth_element(errors.begin(), middle, errors.end());
+double adaptiveThreshold(const std::vector<double>& errors, const std::vector<int>& inliers,
+                         const RobustHomographyOptions& options) {
+  std::vector<double> inlier_errors;
+  inlier_errors.reserve(inliers.size());
+  for (int i : inliers) inlier_errors.push_back(errors[static_cast<std::size_t>(i)]);
+  auto middle = inlier_errors.begin() + static_cast<std::ptrdiff_t>(inlier_errors.size() / 2);
+  std::nth_element(inlier_errors.begin(), middle, inlier_errors.end());
   constexpr double kRayleighMedian = 1.1774;  // median of |e| for e ~ N(0, σ² I₂), in σ
   constexpr double kChi2Radius95 = 2.4477;    // sqrt(χ²₂(0.95))
   const double threshold = kChi2Radius95 * (*middle / kRayleighMedian);
@@ -126,6 +134,7 @@ Expected<RobustHomographyResult> selectAndRefit(const PointMatches& matches,
   std::sort(inliers.begin(), inliers.end());
 
   RobustHomographyResult result;
+  std::vector<double> errors;  // of every match under result.H
   for (int round = 0; round < options.max_refit_rounds; ++round) {
     if (static_cast<int>(inliers.size()) < options.min_inliers) {
       return Status(StatusCode::kNoConsensus,
@@ -135,10 +144,11 @@ Expected<RobustHomographyResult> selectAndRefit(const PointMatches& matches,
     const auto refit = estimateHomographyDlt(subset(matches, inliers));
     if (!refit) return refit.status();
     result.H = *refit;
+    errors = transferErrors(result.H, matches);
     result.final_threshold_px = options.adaptive_threshold
-                                    ? adaptiveThreshold(result.H, matches, inliers, options)
+                                    ? adaptiveThreshold(errors, inliers, options)
                                     : options.inlier_threshold_px;
-    std::vector<int> reselected = selectInliers(result.H, matches, result.final_threshold_px);
+    std::vector<int> reselected = selectInliers(errors, result.final_threshold_px);
     // Stop when the set is stable; on the last round keep the set H was fitted on, so the
     // reported inliers are always those of the returned H.
     if (reselected == inliers || round + 1 == options.max_refit_rounds) break;
@@ -147,15 +157,12 @@ Expected<RobustHomographyResult> selectAndRefit(const PointMatches& matches,
   const double tau_squared = options.inlier_threshold_px * options.inlier_threshold_px;
   double sum_squared = 0.0;
   for (int i : inliers) {
-    const double e = transferError(result.H, matches[static_cast<std::size_t>(i)]);
+    const double e = errors[static_cast<std::size_t>(i)];
     sum_squared += e * e;
   }
   result.rms_transfer_error_px = std::sqrt(sum_squared / static_cast<double>(inliers.size()));
   double cost = 0.0;
-  for (const auto& match : matches) {
-    const double e = transferError(result.H, match);
-    cost += std::isfinite(e) ? std::min(e * e, tau_squared) : tau_squared;
-  }
+  for (double e : errors) cost += std::isfinite(e) ? std::min(e * e, tau_squared) : tau_squared;
   result.msac_cost = cost / (static_cast<double>(matches.size()) * tau_squared);
   result.inliers = std::move(inliers);
   return result;
