@@ -61,31 +61,6 @@ std::map<std::string, std::string> parseArguments(int argc, char** argv) {
   return args;
 }
 
-Eigen::Matrix3d readGroundTruth(const std::string& path) {
-  Eigen::Matrix3d H;
-  const bool opencv_storage = path.size() > 4 && (path.substr(path.size() - 4) == ".xml" ||
-                                                  path.substr(path.size() - 4) == ".yml" ||
-                                                  path.substr(path.size() - 5) == ".yaml");
-  if (opencv_storage) {
-    cv::FileStorage storage(path, cv::FileStorage::READ);
-    if (!storage.isOpened()) fail("cannot open ground truth '" + path + "'");
-    cv::Mat m;
-    storage.root().begin().operator*() >> m;
-    if (m.rows != 3 || m.cols != 3) fail("ground truth '" + path + "' is not a 3x3 matrix");
-    m.convertTo(m, CV_64F);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) H(r, c) = m.at<double>(r, c);
-  } else {
-    std::ifstream in(path);
-    if (!in) fail("cannot open ground truth '" + path + "'");
-    for (int k = 0; k < 9; ++k) {
-      if (!(in >> H(k / 3, k % 3))) fail("ground truth '" + path + "' needs 9 numbers");
-    }
-  }
-  if (!H.allFinite()) fail("ground truth '" + path + "' is not finite");
-  return H;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -96,7 +71,9 @@ int main(int argc, char** argv) {
   const cv::Mat image2 = cv::imread(args.at("image2"), cv::IMREAD_GRAYSCALE);
   if (image1.empty()) fail("cannot read image '" + args.at("image1") + "'");
   if (image2.empty()) fail("cannot read image '" + args.at("image2") + "'");
-  const Eigen::Matrix3d H_gt = readGroundTruth(args.at("gt"));
+  const auto ground_truth = htr::readHomographyFile(args.at("gt"));
+  if (!ground_truth) fail(ground_truth.status().toString());
+  const Eigen::Matrix3d& H_gt = *ground_truth;
 
   htr::RegistrationOptions options;
   try {

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include <string>
 #include <vector>
 
 #include "homography_teach_repeat/status.h"
@@ -47,6 +48,12 @@ double transferError(const Eigen::Matrix3d& H, const PointMatch& match);
 // Symmetric transfer error: |p_cur − π(H p_ref)|² + |p_ref − π(H⁻¹ p_cur)|² (squared pixels).
 double symmetricTransferErrorSquared(const Eigen::Matrix3d& H, const Eigen::Matrix3d& H_inverse,
                                      const PointMatch& match);
+
+// Reads a 3x3 homography from a file: OpenCV XML/YAML (.xml, .yml, .yaml; the first node, as in
+// opencv-doc's H1to3p.xml) or 9 whitespace-separated numbers in row-major order (Oxford and
+// HPatches ground truth). Status kInvalidInput naming the file when it cannot be opened, is not
+// 3x3, has fewer than 9 numbers, or has a non-finite entry.
+Expected<Eigen::Matrix3d> readHomographyFile(const std::string& path);
 
 // Mean of |π(H_a p) − π(H_b p)| over a regular grid of `step` pixels on a width x height image,
 // restricted to the points whose image under H_b lies inside a `width_b` x `height_b` image.

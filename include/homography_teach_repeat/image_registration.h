@@ -39,6 +39,8 @@ class ImageRegistration {
   Status setReference(const cv::Mat& image);
   bool hasReference() const { return reference_.has_value(); }
   const ImageFeatures& referenceFeatures() const;
+  // Size of the reference image (for drawRegistration).
+  cv::Size referenceSize() const { return reference_size_; }
 
   // Status kInvalidInput without a reference or for a bad image; kTooFewPoints when fewer than
   // 4 tentative matches; otherwise the robust estimator's status. With a `camera` that has lens
@@ -51,6 +53,7 @@ class ImageRegistration {
   RegistrationOptions options_;
   FeatureExtractor extractor_;
   std::optional<ImageFeatures> reference_;
+  cv::Size reference_size_;
 };
 
 // Visualisation of a registration on the current image (BGR copy): the border of the reference

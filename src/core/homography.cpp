@@ -4,7 +4,10 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include <opencv2/core.hpp>
+
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <string>
 
@@ -149,6 +152,48 @@ Expected<double> meanGridTransferDifference(const Eigen::Matrix3d& H_a, const Ei
     return Status(StatusCode::kInvalidInput, "no grid point maps inside the second image");
   }
   return sum / count;
+}
+
+namespace {
+bool endsWith(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() &&
+         text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+}  // namespace
+
+Expected<Eigen::Matrix3d> readHomographyFile(const std::string& path) {
+  Eigen::Matrix3d H;
+  if (endsWith(path, ".xml") || endsWith(path, ".yml") || endsWith(path, ".yaml")) {
+    cv::Mat m;
+    try {
+      cv::FileStorage storage(path, cv::FileStorage::READ);
+      if (!storage.isOpened() || storage.root().empty()) {
+        return Status(StatusCode::kInvalidInput, "cannot open homography file '" + path + "'");
+      }
+      (*storage.root().begin()) >> m;
+    } catch (const cv::Exception& e) {
+      return Status(StatusCode::kInvalidInput,
+                    "cannot parse homography file '" + path + "': " + e.what());
+    }
+    if (m.rows != 3 || m.cols != 3) {
+      return Status(StatusCode::kInvalidInput, "homography file '" + path + "' is not 3x3");
+    }
+    m.convertTo(m, CV_64F);
+    for (int k = 0; k < 9; ++k) H(k / 3, k % 3) = m.at<double>(k / 3, k % 3);
+  } else {
+    std::ifstream in(path);
+    if (!in) return Status(StatusCode::kInvalidInput, "cannot open homography file '" + path + "'");
+    for (int k = 0; k < 9; ++k) {
+      if (!(in >> H(k / 3, k % 3))) {
+        return Status(StatusCode::kInvalidInput,
+                      "homography file '" + path + "' needs 9 numbers, found " + std::to_string(k));
+      }
+    }
+  }
+  if (!H.allFinite()) {
+    return Status(StatusCode::kInvalidInput, "homography file '" + path + "' is not finite");
+  }
+  return H;
 }
 
 }  // namespace homography_teach_repeat

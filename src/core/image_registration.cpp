@@ -29,6 +29,7 @@ Status ImageRegistration::setReference(const cv::Mat& image) {
                       " features");
   }
   reference_ = std::move(features.value());
+  reference_size_ = image.size();
   return Status::ok();
 }
 

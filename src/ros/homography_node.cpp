@@ -61,7 +61,6 @@ HomographyNode::HomographyNode(const ros::NodeHandle& nh, const ros::NodeHandle&
            registration_.referenceFeatures().keypoints.size(),
            toString(registration_.referenceFeatures().type).c_str());
 
-  reference_size_ = reference.size();
   homography_publisher_ = private_nh_.advertise<HomographyStamped>("homography", 10);
   debug_image_publisher_ = image_transport::ImageTransport(private_nh_).advertise("debug_image", 1);
   camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1,
@@ -100,7 +99,7 @@ void HomographyNode::onImage(const sensor_msgs::ImageConstPtr& image,
   if (debug_image_publisher_.getNumSubscribers() > 0) {
     debug_image_publisher_.publish(
         cv_bridge::CvImage(image->header, "bgr8",
-                           drawRegistration(*cv_image, *result, reference_size_))
+                           drawRegistration(*cv_image, *result, registration_.referenceSize()))
             .toImageMsg());
   }
   diagnostics_.update();

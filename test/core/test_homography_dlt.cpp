@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include <cmath>
+#include <fstream>
 #include <random>
 
 #include <Eigen/Geometry>
@@ -124,4 +127,43 @@ TEST(MeanGridTransferDifference, IdenticalIsZeroAndNoOverlapFails) {
   Eigen::Matrix3d far_away = Eigen::Matrix3d::Identity();
   far_away(0, 2) = 1e5;
   EXPECT_FALSE(meanGridTransferDifference(groundTruth(), far_away, 800, 640, 800, 640, 10).isOk());
+}
+
+namespace {
+std::string writeTemporary(const std::string& name, const std::string& content) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << content;
+  return path;
+}
+}  // namespace
+
+TEST(ReadHomographyFile, PlainTextAndOpenCvStorage) {
+  const auto plain = readHomographyFile(
+      writeTemporary("h_plain.txt", "0.76 -0.30 225.7\n0.33 1.01 -77.0\n3.5e-4 -1.4e-5 1.0\n"));
+  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
+  EXPECT_LT((*plain - groundTruth()).norm(), 1e-12);
+
+  const std::string xml_path = ::testing::TempDir() + "h_storage.xml";
+  {
+    cv::FileStorage storage(xml_path, cv::FileStorage::WRITE);
+    cv::Mat m(3, 3, CV_64F);
+    for (int k = 0; k < 9; ++k) m.at<double>(k / 3, k % 3) = groundTruth()(k / 3, k % 3);
+    storage << "H13" << m;
+  }
+  const auto xml = readHomographyFile(xml_path);
+  ASSERT_TRUE(xml.isOk()) << xml.status().toString();
+  EXPECT_LT((*xml - groundTruth()).norm(), 1e-12);
+}
+
+TEST(ReadHomographyFile, FailuresNameTheFile) {
+  const auto missing = readHomographyFile("/nonexistent/H.txt");
+  EXPECT_EQ(missing.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(missing.status().message().find("/nonexistent/H.txt"), std::string::npos);
+  const auto short_file = readHomographyFile(writeTemporary("h_short.txt", "1 0 0\n0 1 0\n"));
+  EXPECT_EQ(short_file.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(short_file.status().message().find("needs 9 numbers, found 6"), std::string::npos);
+  EXPECT_EQ(readHomographyFile(writeTemporary("h_nan.txt", "1 0 0 0 1 0 0 0 nan")).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(readHomographyFile(writeTemporary("h_bad.xml", "not xml at all")).status().code(),
+            StatusCode::kInvalidInput);
 }

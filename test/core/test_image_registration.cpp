@@ -1,8 +1,6 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include <fstream>
-
 #include "homography_teach_repeat/image_registration.h"
 #include "test_images.h"
 
@@ -12,13 +10,6 @@ namespace {
 
 const std::string kOpenCvData = HTR_OPENCV_DATA_DIR;
 const std::string kRealData = HTR_SHARED_REALDATA_DIR;
-
-Eigen::Matrix3d readPlainMatrix(const std::string& path) {
-  std::ifstream in(path);
-  Eigen::Matrix3d H;
-  for (int k = 0; k < 9; ++k) in >> H(k / 3, k % 3);
-  return H;
-}
 
 double registerAndCompare(const cv::Mat& reference, const cv::Mat& current,
                           const Eigen::Matrix3d& truth, FeatureType type) {
@@ -137,14 +128,11 @@ TEST(ImageRegistration, RealGraffitiWallFromOpenCvDoc) {
   if (!test_support::fileExists(dir + "/graf1.png")) {
     GTEST_SKIP() << "opencv-doc is not installed (" << dir << "): scripts/test installs it";
   }
-  cv::FileStorage storage(dir + "/H1to3p.xml", cv::FileStorage::READ);
-  cv::Mat truth_cv;
-  storage["H13"] >> truth_cv;
-  Eigen::Matrix3d truth;
-  for (int k = 0; k < 9; ++k) truth(k / 3, k % 3) = truth_cv.at<double>(k / 3, k % 3);
+  const auto truth = readHomographyFile(dir + "/H1to3p.xml");
+  ASSERT_TRUE(truth.isOk()) << truth.status().toString();
   const double error = registerAndCompare(cv::imread(dir + "/graf1.png", cv::IMREAD_GRAYSCALE),
                                           cv::imread(dir + "/graf3.png", cv::IMREAD_GRAYSCALE),
-                                          truth, FeatureType::kSift);
+                                          *truth, FeatureType::kSift);
   EXPECT_LT(error, 1.0);
 }
 
@@ -158,7 +146,7 @@ TEST(ImageRegistration, RealPosterWallFromSharedRealData) {
   for (int k : {2, 3}) {
     const double error = registerAndCompare(
         reference, cv::imread(dir + "/" + std::to_string(k) + ".ppm", cv::IMREAD_GRAYSCALE),
-        readPlainMatrix(dir + "/H_1_" + std::to_string(k)), FeatureType::kSift);
+        *readHomographyFile(dir + "/H_1_" + std::to_string(k)), FeatureType::kSift);
     EXPECT_LT(error, 2.0) << "pair 1->" << k;
   }
 }

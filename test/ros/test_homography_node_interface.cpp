@@ -15,11 +15,9 @@ TEST(HomographyNodeInterface, PublishesTheGroundTruthHomography) {
   const std::string data = private_nh.param<std::string>("data", "");
   const cv::Mat graf3 = cv::imread(data + "/graf3.png", cv::IMREAD_COLOR);
   ASSERT_FALSE(graf3.empty()) << "cannot read " << data << "/graf3.png";
-  cv::FileStorage storage(data + "/H1to3p.xml", cv::FileStorage::READ);
-  cv::Mat truth_cv;
-  storage["H13"] >> truth_cv;
-  Eigen::Matrix3d truth;
-  for (int k = 0; k < 9; ++k) truth(k / 3, k % 3) = truth_cv.at<double>(k / 3, k % 3);
+  const auto truth_file = readHomographyFile(data + "/H1to3p.xml");
+  ASSERT_TRUE(truth_file.isOk()) << truth_file.status().toString();
+  const Eigen::Matrix3d& truth = *truth_file;
 
   image_transport::ImageTransport transport(nh);
   image_transport::CameraPublisher camera = transport.advertiseCamera("camera/image_raw", 1);

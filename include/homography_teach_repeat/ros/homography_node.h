@@ -43,7 +43,6 @@ class HomographyNode {
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
   image_transport::Publisher debug_image_publisher_;
-  cv::Size reference_size_;
   ros::Publisher homography_publisher_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
