@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,23 @@ struct HartleyNormalization {
 
 // Fails (kDegenerate) when all points coincide.
 Expected<HartleyNormalization> computeHartleyNormalization(const std::vector<Eigen::Vector2d>& points);
+
+// The normalised DLT with the quantities its Jacobian needs (MATH.md §3.4): Ĥ (unit Frobenius
+// norm, the right singular vector of Â), the two Hartley similarities, and the right singular
+// vectors / singular values of Â (descending; the last is the null direction, value ~0).
+// `H_unscaled` = T_cur⁻¹ Ĥ T_ref is the pixel homography at the scale the Jacobian refers to.
+struct NormalizedDlt {
+  Eigen::Matrix3d H_normalized;
+  Eigen::Matrix3d H_unscaled;
+  HartleyNormalization reference_normalization;
+  HartleyNormalization current_normalization;
+  Eigen::Matrix<double, 9, 9> right_singular_vectors;
+  Eigen::Matrix<double, 9, 1> singular_values;  // zero-padded when only 4 matches (Â is 8x9)
+  std::size_t match_count = 0;
+};
+
+// Same statuses as estimateHomographyDlt.
+Expected<NormalizedDlt> solveNormalizedDlt(const PointMatches& matches);
 
 // Normalised DLT from >= 4 matches. The result has unit Frobenius norm; its sign is arbitrary
 // (use Fast-HD's κ normalisation, MATH.md §1.3, where the sign matters).

@@ -67,6 +67,8 @@ class Expected {
   }
   const T& operator*() const { return value(); }
   const T* operator->() const { return &value(); }
+  T& operator*() { return value(); }
+  T* operator->() { return &value(); }
 
  private:
   std::optional<T> value_;

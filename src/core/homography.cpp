@@ -47,7 +47,7 @@ Expected<HartleyNormalization> computeHartleyNormalization(const std::vector<Eig
   return n;
 }
 
-Expected<Eigen::Matrix3d> estimateHomographyDlt(const PointMatches& matches) {
+Expected<NormalizedDlt> solveNormalizedDlt(const PointMatches& matches) {
   const std::size_t n = matches.size();
   if (n < 4) {
     return Status(StatusCode::kTooFewPoints,
@@ -83,33 +83,42 @@ Expected<Eigen::Matrix3d> estimateHomographyDlt(const PointMatches& matches) {
   // cheap to decompose: O(n) instead of a Jacobi SVD of the tall 2n x 9 matrix. The QR runs in
   // place: copies of A made glibc trim and regrow the heap on every call (page faults dominated
   // the cost at 500 matches, bench_homography).
-  Eigen::MatrixXd square;
+  Eigen::Matrix<double, 9, 9> square = Eigen::Matrix<double, 9, 9>::Zero();
   if (a.rows() > 9) {
     const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(a);
     square = a.topRows(9).triangularView<Eigen::Upper>();
   } else {
-    square = a;
+    // 4 matches: Â is 8x9; a zero ninth row changes neither V nor the singular values.
+    square.topRows(a.rows()) = a;
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(square, Eigen::ComputeFullV);
-  const Eigen::VectorXd& s = svd.singularValues();
-  // With 4 matches A is 8x9 and has 8 singular values; a second null direction means the
-  // solution is not unique (e.g. three of four points collinear).
-  const Eigen::Index rank_index = 7;
-  if (s.size() <= rank_index || s(rank_index) < 1e-9 * s(0)) {
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 9, 9>> svd(square, Eigen::ComputeFullV);
+  const Eigen::Matrix<double, 9, 1>& s = svd.singularValues();
+  // A second null direction means the solution is not unique (e.g. three of four points
+  // collinear).
+  if (!(s(7) >= 1e-9 * s(0))) {
     return Status(StatusCode::kDegenerate,
                   "the DLT system has no unique solution (degenerate point configuration)");
   }
-  const Eigen::VectorXd h = svd.matrixV().col(8);
-  Eigen::Matrix3d h_normalised;
-  h_normalised << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  NormalizedDlt result;
+  result.right_singular_vectors = svd.matrixV();
+  result.singular_values = s;
+  result.match_count = n;
+  const auto h = result.right_singular_vectors.col(8);
+  result.H_normalized << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  result.reference_normalization = *t1;
+  result.current_normalization = *t2;
   // H = T2⁻¹ Ĥ T1.
-  Eigen::Matrix3d H = t2->transform.inverse() * h_normalised * t1->transform;
-  const double norm = H.norm();
-  if (!(norm > 0.0) || !H.allFinite()) {
+  result.H_unscaled = t2->transform.inverse() * result.H_normalized * t1->transform;
+  if (!result.H_unscaled.allFinite() || !(result.H_unscaled.norm() > 0.0)) {
     return Status(StatusCode::kNotFinite, "the DLT produced a non-finite homography");
   }
-  H /= norm;
-  return H;
+  return result;
+}
+
+Expected<Eigen::Matrix3d> estimateHomographyDlt(const PointMatches& matches) {
+  const auto dlt = solveNormalizedDlt(matches);
+  if (!dlt) return dlt.status();
+  return Eigen::Matrix3d(dlt->H_unscaled / dlt->H_unscaled.norm());
 }
 
 Eigen::Vector2d applyHomography(const Eigen::Matrix3d& H, const Eigen::Vector2d& point) {

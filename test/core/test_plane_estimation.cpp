@@ -1,0 +1,142 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "geometry_fixtures.h"
+#include "homography_teach_repeat/plane_estimation.h"
+#include "homography_teach_repeat/synthetic_plane_scene.h"
+
+using namespace homography_teach_repeat;
+using test_support::expectPoseNear;
+using test_support::mathCamera;
+using test_support::planeFromAngles;
+
+namespace {
+
+std::vector<Eigen::Vector2d> referencePixels(const ScenePlane& plane, const PlanarPose& pose,
+                                             unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<Eigen::Vector2d> pixels;
+  for (const auto& m : sampleVisiblePlaneMatches(mathCamera(), plane, pose, 30, &rng)) {
+    pixels.push_back(m.reference);
+  }
+  return pixels;
+}
+
+void expectPlaneNear(const ScenePlane& actual, const ScenePlane& expected, double tolerance) {
+  EXPECT_LT((actual.normal - expected.normal).norm(), tolerance);
+  EXPECT_NEAR(actual.distance, expected.distance, tolerance);
+}
+
+}  // namespace
+
+// β ≠ 0: positive depth + planar motion leave one solution (MATH.md §2.1), scale from d1.
+TEST(PlaneEstimation, FirstPlaneFromTiltedPlane) {
+  const PlanarPose motion(0.4, 0.9, 0.15);
+  const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
+  const auto result =
+      estimateFirstPlane(planeInducedHomography(mathCamera(), motion, plane), mathCamera(),
+                         referencePixels(plane, motion, 1), plane.distance);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  expectPlaneNear(result->plane, plane, 1e-9);
+  expectPoseNear(result->motion, motion, 1e-9);
+  EXPECT_GE(result->candidates_after_planar_test, 1);
+  EXPECT_FALSE(result->resolved_by_odometry);  // the spurious solution tilts: no tie
+}
+
+// β = 0 (a vertical wall): two planar solutions survive; odometry chooses, none is an error.
+TEST(PlaneEstimation, VerticalPlaneNeedsOdometryToBreakTheTie) {
+  const PlanarPose motion(-0.5, 1.2, -0.2);
+  const ScenePlane plane = planeFromAngles(-0.25, 0.0, 5.0);
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), motion, plane);
+  const auto pixels = referencePixels(plane, motion, 2);
+  const auto without = estimateFirstPlane(H, mathCamera(), pixels, plane.distance);
+  EXPECT_EQ(without.status().code(), StatusCode::kDegenerate);
+  // Odometry over a 1.3 m step: 3 cm and 0.01 rad off (the spurious solution here is 0.15 m and
+  // 0.04 rad away from the truth).
+  const PlanarPose odometry(motion.x + 0.02, motion.z - 0.02, motion.theta + 0.01);
+  const auto with = estimateFirstPlane(H, mathCamera(), pixels, plane.distance, &odometry);
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  EXPECT_TRUE(with->resolved_by_odometry);
+  EXPECT_EQ(with->candidates_after_planar_test, 2);
+  expectPlaneNear(with->plane, plane, 1e-9);
+  expectPoseNear(with->motion, motion, 1e-9);
+}
+
+TEST(PlaneEstimation, FirstPlaneFailures) {
+  const PlanarPose motion(0.4, 0.9, 0.15);
+  const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), motion, plane);
+  const auto pixels = referencePixels(plane, motion, 3);
+  EXPECT_EQ(estimateFirstPlane(H, mathCamera(), pixels, 0.0).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(estimateFirstPlane(H, mathCamera(), {}, 6.0).status().code(),
+            StatusCode::kInvalidInput);
+  // A camera that pitches (not a planar motion): no solution passes the planar test.
+  Eigen::Matrix3d pitch;
+  pitch = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX());
+  const Eigen::Matrix3d H_pitch = mathCamera().K() * pitch * mathCamera().Kinverse() * H;
+  EXPECT_EQ(estimateFirstPlane(H_pitch, mathCamera(), pixels, 6.0).status().code(),
+            StatusCode::kDegenerate);
+}
+
+// MATH.md §2.2: the transferred plane is the plane seen from the next camera.
+TEST(PlaneEstimation, TransferPlaneMatchesDirectGeometry) {
+  const ScenePlane plane = planeFromAngles(0.3, 0.2, 6.0);
+  const PlanarPose pose(0.7, 1.5, 0.35);
+  const auto next = transferPlane(plane, pose);
+  ASSERT_TRUE(next.isOk());
+  // A point of the plane, expressed in the next camera's frame, satisfies n2·X2 = d2.
+  for (const Eigen::Vector3d& X1 : {Eigen::Vector3d(0.2, 0.1, 0.0), Eigen::Vector3d(-1.0, 0.4, 0.0)}) {
+    Eigen::Vector3d point = X1;
+    point.z() = (plane.distance - plane.normal.x() * point.x() - plane.normal.y() * point.y()) /
+                plane.normal.z();
+    const Eigen::Vector3d X2 = pose.rotation21() * (point - pose.centre());
+    EXPECT_NEAR(next->normal.dot(X2), next->distance, 1e-12);
+  }
+  EXPECT_NEAR(next->normal.norm(), 1.0, 1e-12);
+  const PlanarPose behind(plane.normal.x() * 7.0, plane.normal.z() * 7.0, 0.0);
+  EXPECT_EQ(transferPlane(plane, behind).status().code(), StatusCode::kDegenerate);
+}
+
+// MATH.md §2.3-2.4: the second plane from the homology of the two plane homographies.
+TEST(PlaneEstimation, SecondPlaneFromHomology) {
+  const PlanarPose motion(0.6, 1.1, -0.2);
+  const ScenePlane first = planeFromAngles(0.3, 0.1, 6.0);
+  const ScenePlane second = planeFromAngles(-0.7, 0.0, 4.0);
+  const auto result = estimateSecondPlane(
+      3.0 * planeInducedHomography(mathCamera(), motion, first),
+      -0.5 * planeInducedHomography(mathCamera(), motion, second), mathCamera(), first, motion);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  expectPlaneNear(*result, second, 1e-9);
+  EXPECT_EQ(estimateSecondPlane(planeInducedHomography(mathCamera(), PlanarPose(0, 0, 0.1), first),
+                                planeInducedHomography(mathCamera(), PlanarPose(0, 0, 0.1), second),
+                                mathCamera(), first, PlanarPose(0, 0, 0.1))
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
+}
+
+// A taught route of four references: planes and motions everywhere from the first distance.
+TEST(PlaneEstimation, PlanesAlongRoute) {
+  const ScenePlane plane0 = planeFromAngles(0.2, 0.1, 8.0);
+  const std::vector<PlanarPose> steps{PlanarPose(0.3, 1.0, 0.1), PlanarPose(-0.2, 0.8, -0.15),
+                                      PlanarPose(0.1, 0.9, 0.05)};
+  std::vector<ReferencePair> pairs;
+  std::vector<ScenePlane> truth{plane0};
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    ReferencePair pair;
+    pair.H_next_from_current = planeInducedHomography(mathCamera(), steps[k], truth.back());
+    pair.reference_pixels = referencePixels(truth.back(), steps[k], 10 + k);
+    truth.push_back(*transferPlane(truth.back(), steps[k]));
+    pairs.push_back(pair);
+  }
+  const auto route = estimatePlanesAlongRoute(pairs, mathCamera(), plane0.distance);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  ASSERT_EQ(route->planes.size(), 4u);
+  for (std::size_t k = 0; k < truth.size(); ++k) expectPlaneNear(route->planes[k], truth[k], 1e-9);
+  for (std::size_t k = 0; k < steps.size(); ++k) expectPoseNear(route->motions[k], steps[k], 1e-9);
+  EXPECT_EQ(estimatePlanesAlongRoute({}, mathCamera(), 8.0).status().code(),
+            StatusCode::kTooFewPoints);
+}
