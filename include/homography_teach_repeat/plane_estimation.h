@@ -33,16 +33,25 @@ struct PlaneAndMotion {
   int candidates_after_depth_test = 0;
   int candidates_after_planar_test = 0;
   bool resolved_by_odometry = false;
+  bool resolved_by_third_view = false;
 };
 
 // `reference_pixels`: the inlier pixels of the reference image (for the positive-depth test).
-// `odometry_motion` (optional): the second camera in the first camera's frame from odometry.
+// A tie (β ≈ 0: two planar solutions, MATH.md §2.1) is broken by, in this order:
+//  - `odometry_motion`: the second camera in the first camera's frame from odometry; the
+//    candidate motion closest to it wins;
+//  - `H31`: the homography of the same plane from the first image to a third one. The plane
+//    normal in the first frame is the same for every homography from that image while the
+//    spurious solutions depend on the motion, so the candidate whose normal is closest to a
+//    planar solution of H31 wins.
 // Status: kInvalidInput (distance not > 0, no pixels), kDegenerate (no solution survives, or a
-// tie without odometry, or a horizontal plane), the decomposition's failures.
+// tie with neither odometry nor a third view, or a horizontal plane), the decomposition's
+// failures.
 Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
                                             const std::vector<Eigen::Vector2d>& reference_pixels,
                                             double first_plane_distance,
                                             const PlanarPose* odometry_motion = nullptr,
+                                            const Eigen::Matrix3d* H31 = nullptr,
                                             const FirstPlaneOptions& options = {});
 
 // MATH.md §2.2: the plane expressed in the frame of a camera at `pose` (pose in the frame where
@@ -73,7 +82,9 @@ struct RouteSequencePlanes {
   std::vector<PlanarPose> motions;   // reference k+1 in the frame of reference k (Fast-HD)
 };
 
-// Runs §2.1 on the first pair, then for each next pair Fast-HD with the propagated plane (§2.2).
+// Runs §2.1 on the first pair (a tie without odometry is broken with the third view
+// H20 = H21·H10 when there is a second pair), then for each next pair Fast-HD with the propagated
+// plane (§2.2).
 Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<ReferencePair>& pairs,
                                                       const PinholeCamera& camera,
                                                       double first_plane_distance,

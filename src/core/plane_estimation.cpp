@@ -33,6 +33,7 @@ Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const Pi
                                             const std::vector<Eigen::Vector2d>& reference_pixels,
                                             double first_plane_distance,
                                             const PlanarPose* odometry_motion,
+                                            const Eigen::Matrix3d* H31,
                                             const FirstPlaneOptions& options) {
   if (!(first_plane_distance > 0.0) || !std::isfinite(first_plane_distance)) {
     return Status(StatusCode::kInvalidInput, "first_plane_distance must be > 0");
@@ -67,11 +68,7 @@ Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const Pi
   const bool tie = planar.size() > 1 &&
                    planarityError(planar[1]) <
                        options.tie_ratio * std::max(planarityError(planar[0]), kPlanarityFloor);
-  if (tie) {
-    if (odometry_motion == nullptr) {
-      return Status(StatusCode::kDegenerate,
-                    "two planar-motion solutions (vertical plane): odometry needed to choose");
-    }
+  if (tie && odometry_motion != nullptr) {
     double best = std::numeric_limits<double>::infinity();
     for (const auto& d : planar) {
       const double distance =
@@ -82,6 +79,31 @@ Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const Pi
       }
     }
     result.resolved_by_odometry = true;
+  } else if (tie && H31 != nullptr) {
+    const auto third = decomposeHomographyClassic(*H31, camera);
+    if (!third) return third.status();
+    std::vector<Eigen::Vector3d> third_normals;
+    for (const auto& d : filterByPositiveDepth(*third, camera, reference_pixels)) {
+      if (planarityError(d) < options.planar_motion_tolerance) third_normals.push_back(d.normal);
+    }
+    if (third_normals.empty()) {
+      return Status(StatusCode::kDegenerate,
+                    "two planar-motion solutions and the third view has none to compare");
+    }
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& d : planar) {
+      for (const auto& n : third_normals) {
+        const double angle = std::acos(std::clamp(d.normal.normalized().dot(n.normalized()), -1.0, 1.0));
+        if (angle < best) {
+          best = angle;
+          chosen = &d;
+        }
+      }
+    }
+    result.resolved_by_third_view = true;
+  } else if (tie) {
+    return Status(StatusCode::kDegenerate,
+                  "two planar-motion solutions (vertical plane): odometry or a third view needed");
   }
   result.plane = chosen->plane(first_plane_distance);
   result.plane.normal.normalize();
@@ -151,10 +173,16 @@ Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<Referen
     return Status(StatusCode::kTooFewPoints, "plane estimation needs at least two references");
   }
   const ReferencePair& first = pairs.front();
+  Eigen::Matrix3d H20;
+  const Eigen::Matrix3d* third_view = nullptr;
+  if (pairs.size() > 1) {
+    H20 = pairs[1].H_next_from_current * first.H_next_from_current;
+    third_view = &H20;
+  }
   const auto first_plane =
       estimateFirstPlane(first.H_next_from_current, camera, first.reference_pixels,
                          first_plane_distance, first.has_odometry ? &first.odometry_motion : nullptr,
-                         options);
+                         third_view, options);
   if (!first_plane) {
     return Status(first_plane.status().code(),
                   "reference pair 0: " + first_plane.status().message());

@@ -64,6 +64,21 @@ TEST(PlaneEstimation, VerticalPlaneNeedsOdometryToBreakTheTie) {
   expectPoseNear(with->motion, motion, 1e-9);
 }
 
+// The same tie broken by a third view of the plane from the first image (no odometry).
+TEST(PlaneEstimation, VerticalPlaneTieBrokenByThirdView) {
+  const PlanarPose motion(-0.5, 1.2, -0.2);
+  const PlanarPose motion3(0.6, 2.0, 0.25);
+  const ScenePlane plane = planeFromAngles(-0.25, 0.0, 5.0);
+  const Eigen::Matrix3d H21 = planeInducedHomography(mathCamera(), motion, plane);
+  const Eigen::Matrix3d H31 = planeInducedHomography(mathCamera(), motion3, plane);
+  const auto result = estimateFirstPlane(H21, mathCamera(), referencePixels(plane, motion, 4),
+                                         plane.distance, nullptr, &H31);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  EXPECT_TRUE(result->resolved_by_third_view);
+  expectPlaneNear(result->plane, plane, 1e-9);
+  expectPoseNear(result->motion, motion, 1e-9);
+}
+
 TEST(PlaneEstimation, FirstPlaneFailures) {
   const PlanarPose motion(0.4, 0.9, 0.15);
   const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
@@ -120,7 +135,8 @@ TEST(PlaneEstimation, SecondPlaneFromHomology) {
 
 // A taught route of four references: planes and motions everywhere from the first distance.
 TEST(PlaneEstimation, PlanesAlongRoute) {
-  const ScenePlane plane0 = planeFromAngles(0.2, 0.1, 8.0);
+  // β = 0 (a vertical wall): the first pair is a tie, broken by the second pair (third view).
+  const ScenePlane plane0 = planeFromAngles(0.2, 0.0, 8.0);
   const std::vector<PlanarPose> steps{PlanarPose(0.3, 1.0, 0.1), PlanarPose(-0.2, 0.8, -0.15),
                                       PlanarPose(0.1, 0.9, 0.05)};
   std::vector<ReferencePair> pairs;

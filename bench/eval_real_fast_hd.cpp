@@ -1,0 +1,357 @@
+// eval_real_fast_hd: the teach/repeat pipeline on real photographs of a wall with ground-truth
+// cameras (Strecha fountain-P11, ../shared/realdata; never copied into the repository).
+//
+//   rosrun homography_teach_repeat eval_real_fast_hd --data DIR [--json F] [--scale 0.25]
+//          [--feature sift] [--max-features 4000] [--sigma 0.5]
+//
+// Images 0,2,4,6,8,10 are the taught references, 1,3,5,7,9 the repeat images. Pipeline:
+//  1. gravity alignment: every camera is rotated (in pixel space, p' = K Q K⁻¹ p) to a level
+//     virtual camera whose y axis is the mean "down" of the sequence. This is the role of the
+//     camera mount / IMU of a robot; only the tilt of each camera is taken from the ground
+//     truth (its heading and position are not);
+//  2. features (SIFT by default) on images downscaled by --scale (robot-like resolution), ratio +
+//     mutual matching, robust homography per consecutive pair of references;
+//  3. plane estimation along the references (MATH.md §2; the β ≈ 0 tie of the first pair is
+//     broken by the third view); the only metric ground truth used is the distance of the wall
+//     from image 0 (the user-given scale), measured here by triangulating the first pair's wall
+//     inliers with the ground-truth cameras and fitting a plane;
+//  4. each repeat image against its neighbouring references: the one giving most inliers is
+//     used; pose (Fast-HD + 3-DoF refinement) and covariance.
+// Errors against the ground-truth pose of the level repeat camera in the level reference frame
+// (x, z; the small height differences of the real cameras are ignored, as a planar robot would).
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <vector>
+
+#include "eval_cli.h"
+#include "homography_teach_repeat/feature_extractor.h"
+#include "homography_teach_repeat/feature_matcher.h"
+#include "homography_teach_repeat/plane_estimation.h"
+#include "homography_teach_repeat/planar_pose_estimator.h"
+#include "homography_teach_repeat/robust_homography.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+struct GroundTruthCamera {
+  Eigen::Matrix3d K;
+  Eigen::Matrix3d R;  // camera-to-world
+  Eigen::Vector3d C;  // centre, world
+  int width = 0, height = 0;
+};
+
+GroundTruthCamera readCamera(const std::string& path, const eval::Arguments& args) {
+  std::ifstream in(path);
+  if (!in) args.fail("cannot open ground-truth camera '" + path + "'");
+  GroundTruthCamera cam;
+  double distortion[3];
+  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.K(r, c);
+  for (double& d : distortion) in >> d;
+  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.R(r, c);
+  in >> cam.C(0) >> cam.C(1) >> cam.C(2) >> cam.width >> cam.height;
+  if (!in || !cam.K.allFinite() || !cam.R.allFinite() || cam.width <= 0) {
+    args.fail("ground-truth camera '" + path + "' is truncated or malformed");
+  }
+  return cam;
+}
+
+std::string imageName(int index) {
+  std::ostringstream s;
+  s << std::setw(4) << std::setfill('0') << index << ".jpg";
+  return s.str();
+}
+
+// Level frame of a camera: y = the sequence's down direction, z = the optical axis made
+// horizontal. Columns in world coordinates.
+Eigen::Matrix3d levelFrame(const GroundTruthCamera& cam, const Eigen::Vector3d& down) {
+  const Eigen::Vector3d z = (cam.R.col(2) - cam.R.col(2).dot(down) * down).normalized();
+  Eigen::Matrix3d L;
+  L.col(1) = down;
+  L.col(2) = z;
+  L.col(0) = down.cross(z);
+  return L;
+}
+
+struct View {
+  GroundTruthCamera gt;
+  Eigen::Matrix3d level;          // L (columns: level axes in world)
+  Eigen::Matrix3d rectification;  // pixel map of the scaled image to the level camera
+  ImageFeatures features;
+};
+
+PointMatches rectifiedMatches(const View& a, const View& b, const MatchOptions& options,
+                              PointMatches* raw) {
+  const auto dmatches = matchFeatures(a.features, b.features, options);
+  if (!dmatches) return {};
+  *raw = toPointMatches(a.features, b.features, *dmatches);
+  PointMatches rectified = *raw;
+  for (auto& m : rectified) {
+    m.reference = (a.rectification * m.reference.homogeneous()).hnormalized();
+    m.current = (b.rectification * m.current.homogeneous()).hnormalized();
+  }
+  return rectified;
+}
+
+// Least-squares plane through triangulated points (world), after dropping the points farther
+// than 3 median absolute residuals; returns (n, d) with nᵀX = d.
+std::pair<Eigen::Vector3d, double> fitPlane(const std::vector<Eigen::Vector3d>& points) {
+  std::vector<Eigen::Vector3d> kept = points;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  for (int round = 0; round < 3; ++round) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& p : kept) mean += p;
+    mean /= static_cast<double>(kept.size());
+    Eigen::MatrixXd centred(kept.size(), 3);
+    for (std::size_t i = 0; i < kept.size(); ++i) centred.row(i) = (kept[i] - mean).transpose();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+    normal = svd.matrixV().col(2);
+    offset = normal.dot(mean);
+    std::vector<double> residuals;
+    for (const auto& p : points) residuals.push_back(std::abs(normal.dot(p) - offset));
+    std::vector<double> sorted = residuals;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double limit = 3.0 * sorted[sorted.size() / 2];
+    kept.clear();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (residuals[i] <= limit) kept.push_back(points[i]);
+    }
+  }
+  return {normal, offset};
+}
+
+Eigen::Matrix<double, 3, 4> projection(const GroundTruthCamera& cam, const Eigen::Matrix3d& K) {
+  Eigen::Matrix<double, 3, 4> P;
+  P.leftCols<3>() = cam.R.transpose();
+  P.col(3) = -cam.R.transpose() * cam.C;
+  return K * P;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  eval::Arguments args("eval_real_fast_hd",
+                       {{"data", ""}, {"json", ""}, {"scale", "0.25"}, {"feature", "sift"},
+                        {"max-features", "4000"}, {"sigma", "0.5"}},
+                       "--data DIR [--json F] [--scale S] [--feature T] [--max-features N] "
+                       "[--sigma PX]");
+  args.parse(argc, argv);
+  const std::string dir = args.text("data");
+  if (dir.empty()) args.fail("--data DIR (fountain-P11 folder) is required");
+  const double scale = args.number("scale");
+  if (!(scale > 0.0 && scale <= 1.0)) args.fail("--scale must be in (0, 1]");
+
+  // Ground truth and images.
+  std::vector<View> views(11);
+  for (int i = 0; i < 11; ++i) {
+    views[i].gt = readCamera(dir + "/gt_dense_cameras/" + imageName(i) + ".camera", args);
+  }
+  Eigen::Vector3d down = Eigen::Vector3d::Zero();
+  for (const auto& v : views) down += v.gt.R.col(1);
+  down.normalize();
+  // Scaled intrinsics (pixel centres preserved).
+  Eigen::Matrix3d K = views[0].gt.K;
+  K(0, 0) *= scale;
+  K(1, 1) *= scale;
+  K(0, 2) = (K(0, 2) + 0.5) * scale - 0.5;
+  K(1, 2) = (K(1, 2) + 0.5) * scale - 0.5;
+  CameraCalibration calibration;
+  calibration.width = static_cast<int>(std::lround(views[0].gt.width * scale));
+  calibration.height = static_cast<int>(std::lround(views[0].gt.height * scale));
+  calibration.fx = K(0, 0);
+  calibration.fy = K(1, 1);
+  calibration.cx = K(0, 2);
+  calibration.cy = K(1, 2);
+  const PinholeCamera camera(calibration);
+
+  FeatureOptions feature_options;
+  feature_options.type = featureTypeFromString(args.text("feature"));
+  feature_options.max_features = args.integer("max-features");
+  FeatureExtractor extractor(feature_options);
+  double max_tilt_deg = 0.0;
+  for (int i = 0; i < 11; ++i) {
+    const std::string path = dir + "/images/" + imageName(i);
+    cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (image.empty()) args.fail("cannot read image '" + path + "'");
+    cv::resize(image, image, cv::Size(calibration.width, calibration.height), 0, 0, cv::INTER_AREA);
+    auto features = extractor.extract(image);
+    if (!features) args.fail(path + ": " + features.status().toString());
+    views[i].features = *features;
+    views[i].level = levelFrame(views[i].gt, down);
+    // Camera -> level rotation Q = Lᵀ R; pixels p_level ∝ K Q K⁻¹ p.
+    const Eigen::Matrix3d Q = views[i].level.transpose() * views[i].gt.R;
+    views[i].rectification = K * Q * K.inverse();
+    max_tilt_deg = std::max(max_tilt_deg, Eigen::AngleAxisd(Q).angle() * kRadToDeg);
+  }
+
+  const MatchOptions match_options;
+  PlanarPoseEstimatorOptions pose_options;
+  pose_options.pixel_sigma_px = args.number("sigma");
+  pose_options.validate();
+
+  // References and their consecutive homographies.
+  const std::vector<int> references{0, 2, 4, 6, 8, 10};
+  std::vector<ReferencePair> pairs;
+  std::vector<Eigen::Vector3d> wall_points;  // triangulated with the ground truth (scale only)
+  nlohmann::json pair_json = nlohmann::json::array();
+  for (std::size_t k = 0; k + 1 < references.size(); ++k) {
+    const View& a = views[references[k]];
+    const View& b = views[references[k + 1]];
+    PointMatches raw;
+    const PointMatches matches = rectifiedMatches(a, b, match_options, &raw);
+    const auto robust = estimateHomographyRobust(matches, pose_options.robust);
+    if (!robust) {
+      args.fail("reference pair " + std::to_string(references[k]) + "-" +
+                std::to_string(references[k + 1]) + ": " + robust.status().toString());
+    }
+    ReferencePair pair;
+    PointMatches inliers;
+    for (const int i : robust->inliers) {
+      inliers.push_back(matches[i]);
+      pair.reference_pixels.push_back(matches[i].reference);
+    }
+    pair.H_next_from_current = *estimateHomographyDlt(inliers);
+    pairs.push_back(pair);
+    pair_json.push_back({{"reference", references[k]}, {"next", references[k + 1]},
+                         {"matches", matches.size()}, {"inliers", robust->inliers.size()},
+                         {"rms_transfer_error_px", robust->rms_transfer_error_px}});
+    if (k == 0) {
+      // The user-given scale: the wall's distance from image 0, from ground-truth triangulation.
+      cv::Mat p0(2, static_cast<int>(robust->inliers.size()), CV_64F);
+      cv::Mat p1(2, static_cast<int>(robust->inliers.size()), CV_64F);
+      for (std::size_t j = 0; j < robust->inliers.size(); ++j) {
+        const auto& m = raw[robust->inliers[j]];
+        p0.at<double>(0, j) = m.reference.x();
+        p0.at<double>(1, j) = m.reference.y();
+        p1.at<double>(0, j) = m.current.x();
+        p1.at<double>(1, j) = m.current.y();
+      }
+      cv::Mat P0, P1, X;
+      const Eigen::Matrix<double, 3, 4> e0 = projection(a.gt, K), e1 = projection(b.gt, K);
+      P0.create(3, 4, CV_64F);
+      P1.create(3, 4, CV_64F);
+      for (int r = 0; r < 3; ++r) for (int c = 0; c < 4; ++c) {
+        P0.at<double>(r, c) = e0(r, c);
+        P1.at<double>(r, c) = e1(r, c);
+      }
+      cv::triangulatePoints(P0, P1, p0, p1, X);
+      for (int j = 0; j < X.cols; ++j) {
+        const double w = X.at<double>(3, j);
+        wall_points.emplace_back(X.at<double>(0, j) / w, X.at<double>(1, j) / w,
+                                 X.at<double>(2, j) / w);
+      }
+    }
+  }
+  const auto [wall_normal_world, wall_offset] = fitPlane(wall_points);
+  const double first_plane_distance = std::abs(wall_offset - wall_normal_world.dot(views[0].gt.C));
+
+  const auto route = estimatePlanesAlongRoute(pairs, camera, first_plane_distance);
+  if (!route) args.fail("plane estimation: " + route.status().toString());
+
+  // Plane errors against the fitted wall (diagnostic only).
+  nlohmann::json planes_json = nlohmann::json::array();
+  for (std::size_t k = 0; k < references.size(); ++k) {
+    const View& v = views[references[k]];
+    Eigen::Vector3d n_true = v.level.transpose() * wall_normal_world;
+    double d_true = wall_offset - wall_normal_world.dot(v.gt.C);
+    if (d_true < 0) {
+      n_true = -n_true;
+      d_true = -d_true;
+    }
+    const ScenePlane& p = route->planes[k];
+    planes_json.push_back(
+        {{"reference", references[k]},
+         {"normal_err_deg", std::acos(std::clamp(p.normal.dot(n_true), -1.0, 1.0)) * kRadToDeg},
+         {"distance_m", p.distance},
+         {"distance_true_m", d_true}});
+  }
+
+  // Repeat images.
+  nlohmann::json per_image = nlohmann::json::array();
+  std::vector<double> heading_errors, position_pct;
+  std::cout << "first-plane distance (user scale) " << std::setprecision(4) << first_plane_distance
+            << " m; max tilt corrected " << max_tilt_deg << " deg\n";
+  for (const int j : {1, 3, 5, 7, 9}) {
+    int best_reference = -1;
+    Expected<PlanarPoseEstimate> best = Status(StatusCode::kNoConsensus, "no reference tried");
+    for (const int r : {j - 1, j + 1}) {
+      const std::size_t k = static_cast<std::size_t>(r / 2);
+      PointMatches raw;
+      const PointMatches matches = rectifiedMatches(views[r], views[j], match_options, &raw);
+      auto estimate = estimatePlanarPose(matches, camera, route->planes[k], pose_options);
+      if (estimate && (!best || estimate->inliers.size() > best->inliers.size())) {
+        best = estimate;
+        best_reference = r;
+      }
+    }
+    if (!best) {
+      per_image.push_back({{"image", j}, {"status", best.status().toString()}});
+      std::cout << "image " << j << ": " << best.status().toString() << "\n";
+      continue;
+    }
+    const View& ref = views[best_reference];
+    const View& cur = views[j];
+    const Eigen::Vector3d c = ref.level.transpose() * (cur.gt.C - ref.gt.C);
+    const Eigen::Vector3d axis = ref.level.transpose() * cur.level.col(2);
+    const PlanarPose truth(c.x(), c.z(), std::atan2(-axis.x(), axis.z()));
+    const double heading_err = std::abs(wrapToPi(best->pose.theta - truth.theta)) * kRadToDeg;
+    const double pos_err = std::hypot(best->pose.x - truth.x, best->pose.z - truth.z);
+    const double baseline = std::hypot(truth.x, truth.z);
+    heading_errors.push_back(heading_err);
+    position_pct.push_back(100.0 * pos_err / baseline);
+    per_image.push_back({{"image", j},
+                         {"reference", best_reference},
+                         {"inliers", best->inliers.size()},
+                         {"heading_err_deg", heading_err},
+                         {"pos_err_m", pos_err},
+                         {"pos_err_pct", 100.0 * pos_err / baseline},
+                         {"baseline_m", baseline},
+                         {"height_offset_m", c.y()},
+                         {"estimate", {best->pose.x, best->pose.z, best->pose.theta}},
+                         {"truth", {truth.x, truth.z, truth.theta}},
+                         {"fast_hd_heading_err_deg",
+                          std::abs(wrapToPi(best->fast_hd_pose.theta - truth.theta)) * kRadToDeg},
+                         {"fast_hd_pos_err_m", std::hypot(best->fast_hd_pose.x - truth.x,
+                                                          best->fast_hd_pose.z - truth.z)},
+                         {"pred_sigma_theta_deg", std::sqrt(best->covariance(2, 2)) * kRadToDeg},
+                         {"pred_sigma_pos_m",
+                          std::sqrt(best->covariance(0, 0) + best->covariance(1, 1))}});
+    std::cout << "image " << j << " vs " << best_reference << ": heading err " << std::setprecision(3)
+              << heading_err << " deg, position err " << pos_err << " m of " << baseline
+              << " m (" << 100.0 * pos_err / baseline << "%), " << best->inliers.size()
+              << " inliers\n";
+  }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return std::nan("");
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  nlohmann::json document{{"per_image", per_image},
+                          {"median_heading_err_deg", median(heading_errors)},
+                          {"median_pos_err_pct", median(position_pct)},
+                          {"reference_pairs", pair_json},
+                          {"planes", planes_json},
+                          {"first_plane_distance_m", first_plane_distance},
+                          {"setup", {{"scale", scale}, {"feature", args.text("feature")},
+                                     {"image", {calibration.width, calibration.height}},
+                                     {"sigma_px", pose_options.pixel_sigma_px}}}};
+  std::cout << "median heading error " << document["median_heading_err_deg"].get<double>()
+            << " deg, median position error " << document["median_pos_err_pct"].get<double>()
+            << " %\n";
+  args.writeJson(document);
+  return 0;
+}
