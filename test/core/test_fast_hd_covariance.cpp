@@ -3,6 +3,8 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
 #include "geometry_fixtures.h"
 #include "homography_teach_repeat/fast_hd_covariance.h"
 #include "homography_teach_repeat/synthetic_plane_scene.h"
@@ -92,13 +94,69 @@ TEST(FastHdCovariance, MatchesDenseProduct) {
   const PointMatches matches = test_support::addPixelNoise(sceneAMatches(40, 4), 0.5, &rng);
   const auto dlt = solveNormalizedDlt(matches);
   ASSERT_TRUE(dlt.isOk());
-  const auto covariance = fastHdCovariance(*dlt, matches, mathCamera(), kSceneAPlane, 0.7);
+  const auto covariance =
+      fastHdCovariance(*dlt, matches, mathCamera(), kSceneAPlane, 0.7, /*second_order=*/false);
   ASSERT_TRUE(covariance.isOk());
   const Eigen::MatrixXd j =
       *fastHdJacobian(dlt->H_unscaled, mathCamera(), kSceneAPlane) *
       normalizedDltJacobian(*dlt, matches);
   const Eigen::Matrix3d dense = 0.49 * j * j.transpose();
   EXPECT_LT((*covariance - dense).norm(), 1e-10 * dense.norm());
+
+  // The second-order term only adds (positive semidefinite) and is small in this well-posed
+  // scene.
+  const auto full = fastHdCovariance(*dlt, matches, mathCamera(), kSceneAPlane, 0.7);
+  ASSERT_TRUE(full.isOk());
+  const Eigen::Matrix3d added = *full - *covariance;
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(added).eigenvalues().minCoeff(),
+            -1e-12 * dense.norm());
+  EXPECT_LT(added.norm(), 0.05 * dense.norm());
+}
+
+// The pose map's Jacobian and Hessians (behind the second-order term) against central
+// differences of g(x21, z21, S, C), at a point where S² + C² ≠ 1 (noisy data).
+TEST(FastHdCovariance, PoseMapDerivativesMatchFiniteDifferences) {
+  auto g = [](const Eigen::Vector4d& s) {
+    const double theta21 = std::atan2(s(2), s(3));
+    const double c = std::cos(theta21), sn = std::sin(theta21);
+    return Eigen::Vector3d(c * s(0) + sn * s(1), -sn * s(0) + c * s(1), -theta21);
+  };
+  const Eigen::Vector4d s0(0.7, -1.3, 0.31, 0.97);
+  FastHdSolution solution;
+  solution.x21 = s0(0);
+  solution.z21 = s0(1);
+  solution.sin_theta21 = s0(2);
+  solution.cos_theta21 = s0(3);
+  const Eigen::Vector3d pose = g(s0);
+  solution.pose = PlanarPose(pose(0), pose(1), pose(2));
+  const Eigen::Matrix<double, 3, 4> jacobian = fastHdPoseMapJacobian(solution);
+  const auto hessians = fastHdPoseMapHessians(solution);
+  const double h = 1e-4;
+  for (int a = 0; a < 4; ++a) {
+    const Eigen::Vector4d ea = Eigen::Vector4d::Unit(a) * h;
+    EXPECT_LT(((g(s0 + ea) - g(s0 - ea)) / (2 * h) - jacobian.col(a)).norm(), 1e-7);
+    for (int b = 0; b < 4; ++b) {
+      const Eigen::Vector4d eb = Eigen::Vector4d::Unit(b) * h;
+      const Eigen::Vector3d numeric =
+          (g(s0 + ea + eb) - g(s0 + ea - eb) - g(s0 - ea + eb) + g(s0 - ea - eb)) / (4 * h * h);
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(hessians[i](a, b), numeric(i), 1e-6) << i << a << b;
+    }
+  }
+}
+
+TEST(FastHdCovariance, SecondOrderTermGrowsWithNoiseAsSigmaToTheFourth) {
+  const PointMatches matches = sceneAMatches(20, 13);
+  const auto dlt = solveNormalizedDlt(matches);
+  ASSERT_TRUE(dlt.isOk());
+  auto secondOrderPart = [&](double sigma) {
+    return (*fastHdCovariance(*dlt, matches, mathCamera(), kSceneAPlane, sigma) -
+            *fastHdCovariance(*dlt, matches, mathCamera(), kSceneAPlane, sigma, false))
+        .norm();
+  };
+  const double small = secondOrderPart(0.5);
+  const double large = secondOrderPart(1.0);
+  ASSERT_GT(small, 0.0);
+  EXPECT_NEAR(large / small, 16.0, 1e-6 * 16.0);
 }
 
 // Predicted std against a Monte Carlo of the pipeline (MATH.md §3.5, scene A at 1 px; the
