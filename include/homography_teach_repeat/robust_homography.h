@@ -50,6 +50,9 @@ struct RobustHomographyOptions {
   bool adaptive_threshold = true;
   int hypotheses = 4;  // selector runs on permuted matches; the lowest MSAC cost wins
   double min_adaptive_threshold_px = 0.5;
+  // After the inliers are final, refine H on them by Levenberg-Marquardt on the Sampson distance
+  // (homography_refinement.h). Off by default: the Fast-HD covariance is that of the DLT.
+  bool refine_nonlinear = false;
 
   // Throws std::invalid_argument naming the field on an invalid value.
   void validate() const;

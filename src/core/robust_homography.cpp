@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/robust_homography.h"
 
+#include "homography_teach_repeat/homography_refinement.h"
+
 #include <opencv2/calib3d.hpp>
 
 #include <algorithm>
@@ -199,6 +201,16 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
     if (!best || candidate->msac_cost < best->msac_cost) best = std::move(candidate.value());
   }
   if (!best) return last_failure;
+  if (options.refine_nonlinear) {
+    PointMatches inliers;
+    for (const int i : best->inliers) inliers.push_back(matches[static_cast<std::size_t>(i)]);
+    const auto refined = refineHomographySampson(best->H, inliers);
+    if (!refined) return refined.status();
+    best->H = refined->H;
+    double sum = 0.0;
+    for (const auto& m : inliers) sum += std::pow(transferError(best->H, m), 2);
+    best->rms_transfer_error_px = std::sqrt(sum / static_cast<double>(inliers.size()));
+  }
   return std::move(*best);
 }
 
