@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "eval_cli.h"
+#include "fountain_dataset.h"
 #include "homography_teach_repeat/feature_extractor.h"
 #include "homography_teach_repeat/feature_matcher.h"
 #include "homography_teach_repeat/plane_estimation.h"
@@ -47,98 +48,18 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-struct GroundTruthCamera {
-  Eigen::Matrix3d K;
-  Eigen::Matrix3d R;  // camera-to-world
-  Eigen::Vector3d C;  // centre, world
-  int width = 0, height = 0;
-};
-
-GroundTruthCamera readCamera(const std::string& path, const eval::Arguments& args) {
-  std::ifstream in(path);
-  if (!in) args.fail("cannot open ground-truth camera '" + path + "'");
-  GroundTruthCamera cam;
-  double distortion[3];
-  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.K(r, c);
-  for (double& d : distortion) in >> d;
-  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.R(r, c);
-  in >> cam.C(0) >> cam.C(1) >> cam.C(2) >> cam.width >> cam.height;
-  if (!in || !cam.K.allFinite() || !cam.R.allFinite() || cam.width <= 0) {
-    args.fail("ground-truth camera '" + path + "' is truncated or malformed");
-  }
-  return cam;
-}
-
-std::string imageName(int index) {
-  std::ostringstream s;
-  s << std::setw(4) << std::setfill('0') << index << ".jpg";
-  return s.str();
-}
-
-// Level frame of a camera: y = the sequence's down direction, z = the optical axis made
-// horizontal. Columns in world coordinates.
-Eigen::Matrix3d levelFrame(const GroundTruthCamera& cam, const Eigen::Vector3d& down) {
-  const Eigen::Vector3d z = (cam.R.col(2) - cam.R.col(2).dot(down) * down).normalized();
-  Eigen::Matrix3d L;
-  L.col(1) = down;
-  L.col(2) = z;
-  L.col(0) = down.cross(z);
-  return L;
-}
-
-struct View {
-  GroundTruthCamera gt;
-  Eigen::Matrix3d level;          // L (columns: level axes in world)
-  Eigen::Matrix3d rectification;  // pixel map of the scaled image to the level camera
-  ImageFeatures features;
-};
-
-PointMatches rectifiedMatches(const View& a, const View& b, const MatchOptions& options,
-                              PointMatches* raw) {
-  const auto dmatches = matchFeatures(a.features, b.features, options);
+PointMatches rectifiedMatches(const eval::FountainView& a, const ImageFeatures& fa,
+                              const eval::FountainView& b, const ImageFeatures& fb,
+                              const MatchOptions& options, PointMatches* raw) {
+  const auto dmatches = matchFeatures(fa, fb, options);
   if (!dmatches) return {};
-  *raw = toPointMatches(a.features, b.features, *dmatches);
+  *raw = toPointMatches(fa, fb, *dmatches);
   PointMatches rectified = *raw;
   for (auto& m : rectified) {
     m.reference = (a.rectification * m.reference.homogeneous()).hnormalized();
     m.current = (b.rectification * m.current.homogeneous()).hnormalized();
   }
   return rectified;
-}
-
-// Least-squares plane through triangulated points (world), after dropping the points farther
-// than 3 median absolute residuals; returns (n, d) with nᵀX = d.
-std::pair<Eigen::Vector3d, double> fitPlane(const std::vector<Eigen::Vector3d>& points) {
-  std::vector<Eigen::Vector3d> kept = points;
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
-  double offset = 0.0;
-  for (int round = 0; round < 3; ++round) {
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const auto& p : kept) mean += p;
-    mean /= static_cast<double>(kept.size());
-    Eigen::MatrixXd centred(kept.size(), 3);
-    for (std::size_t i = 0; i < kept.size(); ++i) centred.row(i) = (kept[i] - mean).transpose();
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
-    normal = svd.matrixV().col(2);
-    offset = normal.dot(mean);
-    std::vector<double> residuals;
-    for (const auto& p : points) residuals.push_back(std::abs(normal.dot(p) - offset));
-    std::vector<double> sorted = residuals;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double limit = 3.0 * sorted[sorted.size() / 2];
-    kept.clear();
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      if (residuals[i] <= limit) kept.push_back(points[i]);
-    }
-  }
-  return {normal, offset};
-}
-
-Eigen::Matrix<double, 3, 4> projection(const GroundTruthCamera& cam, const Eigen::Matrix3d& K) {
-  Eigen::Matrix<double, 3, 4> P;
-  P.leftCols<3>() = cam.R.transpose();
-  P.col(3) = -cam.R.transpose() * cam.C;
-  return K * P;
 }
 
 }  // namespace
@@ -155,47 +76,21 @@ int main(int argc, char** argv) {
   const double scale = args.number("scale");
   if (!(scale > 0.0 && scale <= 1.0)) args.fail("--scale must be in (0, 1]");
 
-  // Ground truth and images.
-  std::vector<View> views(11);
-  for (int i = 0; i < 11; ++i) {
-    views[i].gt = readCamera(dir + "/gt_dense_cameras/" + imageName(i) + ".camera", args);
-  }
-  Eigen::Vector3d down = Eigen::Vector3d::Zero();
-  for (const auto& v : views) down += v.gt.R.col(1);
-  down.normalize();
-  // Scaled intrinsics (pixel centres preserved).
-  Eigen::Matrix3d K = views[0].gt.K;
-  K(0, 0) *= scale;
-  K(1, 1) *= scale;
-  K(0, 2) = (K(0, 2) + 0.5) * scale - 0.5;
-  K(1, 2) = (K(1, 2) + 0.5) * scale - 0.5;
-  CameraCalibration calibration;
-  calibration.width = static_cast<int>(std::lround(views[0].gt.width * scale));
-  calibration.height = static_cast<int>(std::lround(views[0].gt.height * scale));
-  calibration.fx = K(0, 0);
-  calibration.fy = K(1, 1);
-  calibration.cx = K(0, 2);
-  calibration.cy = K(1, 2);
+  const eval::FountainSequence sequence(dir, scale, args);
+  const auto& views = sequence.views();
+  const CameraCalibration& calibration = sequence.calibration();
   const PinholeCamera camera(calibration);
-
   FeatureOptions feature_options;
   feature_options.type = featureTypeFromString(args.text("feature"));
   feature_options.max_features = args.integer("max-features");
   FeatureExtractor extractor(feature_options);
+  std::vector<ImageFeatures> features;
   double max_tilt_deg = 0.0;
-  for (int i = 0; i < 11; ++i) {
-    const std::string path = dir + "/images/" + imageName(i);
-    cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
-    if (image.empty()) args.fail("cannot read image '" + path + "'");
-    cv::resize(image, image, cv::Size(calibration.width, calibration.height), 0, 0, cv::INTER_AREA);
-    auto features = extractor.extract(image);
-    if (!features) args.fail(path + ": " + features.status().toString());
-    views[i].features = *features;
-    views[i].level = levelFrame(views[i].gt, down);
-    // Camera -> level rotation Q = Lᵀ R; pixels p_level ∝ K Q K⁻¹ p.
-    const Eigen::Matrix3d Q = views[i].level.transpose() * views[i].gt.R;
-    views[i].rectification = K * Q * K.inverse();
-    max_tilt_deg = std::max(max_tilt_deg, Eigen::AngleAxisd(Q).angle() * kRadToDeg);
+  for (const auto& v : views) {
+    auto f = extractor.extract(v.image);
+    if (!f) args.fail(f.status().toString());
+    features.push_back(*f);
+    max_tilt_deg = std::max(max_tilt_deg, v.tilt_deg);
   }
 
   const MatchOptions match_options;
@@ -206,13 +101,13 @@ int main(int argc, char** argv) {
   // References and their consecutive homographies.
   const std::vector<int> references{0, 2, 4, 6, 8, 10};
   std::vector<ReferencePair> pairs;
-  std::vector<Eigen::Vector3d> wall_points;  // triangulated with the ground truth (scale only)
+  PointMatches first_pair_wall;  // raw pixels of the first pair's inliers (for the scale)
   nlohmann::json pair_json = nlohmann::json::array();
   for (std::size_t k = 0; k + 1 < references.size(); ++k) {
-    const View& a = views[references[k]];
-    const View& b = views[references[k + 1]];
+    const int ia = references[k], ib = references[k + 1];
     PointMatches raw;
-    const PointMatches matches = rectifiedMatches(a, b, match_options, &raw);
+    const PointMatches matches =
+        rectifiedMatches(views[ia], features[ia], views[ib], features[ib], match_options, &raw);
     const auto robust = estimateHomographyRobust(matches, pose_options.robust);
     if (!robust) {
       args.fail("reference pair " + std::to_string(references[k]) + "-" +
@@ -230,33 +125,12 @@ int main(int argc, char** argv) {
                          {"matches", matches.size()}, {"inliers", robust->inliers.size()},
                          {"rms_transfer_error_px", robust->rms_transfer_error_px}});
     if (k == 0) {
-      // The user-given scale: the wall's distance from image 0, from ground-truth triangulation.
-      cv::Mat p0(2, static_cast<int>(robust->inliers.size()), CV_64F);
-      cv::Mat p1(2, static_cast<int>(robust->inliers.size()), CV_64F);
-      for (std::size_t j = 0; j < robust->inliers.size(); ++j) {
-        const auto& m = raw[robust->inliers[j]];
-        p0.at<double>(0, j) = m.reference.x();
-        p0.at<double>(1, j) = m.reference.y();
-        p1.at<double>(0, j) = m.current.x();
-        p1.at<double>(1, j) = m.current.y();
-      }
-      cv::Mat P0, P1, X;
-      const Eigen::Matrix<double, 3, 4> e0 = projection(a.gt, K), e1 = projection(b.gt, K);
-      P0.create(3, 4, CV_64F);
-      P1.create(3, 4, CV_64F);
-      for (int r = 0; r < 3; ++r) for (int c = 0; c < 4; ++c) {
-        P0.at<double>(r, c) = e0(r, c);
-        P1.at<double>(r, c) = e1(r, c);
-      }
-      cv::triangulatePoints(P0, P1, p0, p1, X);
-      for (int j = 0; j < X.cols; ++j) {
-        const double w = X.at<double>(3, j);
-        wall_points.emplace_back(X.at<double>(0, j) / w, X.at<double>(1, j) / w,
-                                 X.at<double>(2, j) / w);
-      }
+      for (const int i : robust->inliers) first_pair_wall.push_back(raw[i]);
     }
   }
-  const auto [wall_normal_world, wall_offset] = fitPlane(wall_points);
+  // The user-given scale: the wall's distance from image 0, from ground-truth triangulation.
+  const auto [wall_normal_world, wall_offset] =
+      sequence.fitWall(references[0], references[1], first_pair_wall);
   const double first_plane_distance = std::abs(wall_offset - wall_normal_world.dot(views[0].gt.C));
 
   const auto route = estimatePlanesAlongRoute(pairs, camera, first_plane_distance);
@@ -265,7 +139,7 @@ int main(int argc, char** argv) {
   // Plane errors against the fitted wall (diagnostic only).
   nlohmann::json planes_json = nlohmann::json::array();
   for (std::size_t k = 0; k < references.size(); ++k) {
-    const View& v = views[references[k]];
+    const eval::FountainView& v = views[references[k]];
     Eigen::Vector3d n_true = v.level.transpose() * wall_normal_world;
     double d_true = wall_offset - wall_normal_world.dot(v.gt.C);
     if (d_true < 0) {
@@ -291,7 +165,8 @@ int main(int argc, char** argv) {
     for (const int r : {j - 1, j + 1}) {
       const std::size_t k = static_cast<std::size_t>(r / 2);
       PointMatches raw;
-      const PointMatches matches = rectifiedMatches(views[r], views[j], match_options, &raw);
+      const PointMatches matches =
+          rectifiedMatches(views[r], features[r], views[j], features[j], match_options, &raw);
       auto estimate = estimatePlanarPose(matches, camera, route->planes[k], pose_options);
       if (estimate && (!best || estimate->inliers.size() > best->inliers.size())) {
         best = estimate;
@@ -303,11 +178,8 @@ int main(int argc, char** argv) {
       std::cout << "image " << j << ": " << best.status().toString() << "\n";
       continue;
     }
-    const View& ref = views[best_reference];
-    const View& cur = views[j];
-    const Eigen::Vector3d c = ref.level.transpose() * (cur.gt.C - ref.gt.C);
-    const Eigen::Vector3d axis = ref.level.transpose() * cur.level.col(2);
-    const PlanarPose truth(c.x(), c.z(), std::atan2(-axis.x(), axis.z()));
+    double height_offset = 0.0;
+    const PlanarPose truth = sequence.relativePose(best_reference, j, &height_offset);
     const double heading_err = std::abs(wrapToPi(best->pose.theta - truth.theta)) * kRadToDeg;
     const double pos_err = std::hypot(best->pose.x - truth.x, best->pose.z - truth.z);
     const double baseline = std::hypot(truth.x, truth.z);
@@ -320,7 +192,7 @@ int main(int argc, char** argv) {
                          {"pos_err_m", pos_err},
                          {"pos_err_pct", 100.0 * pos_err / baseline},
                          {"baseline_m", baseline},
-                         {"height_offset_m", c.y()},
+                         {"height_offset_m", height_offset},
                          {"estimate", {best->pose.x, best->pose.z, best->pose.theta}},
                          {"truth", {truth.x, truth.z, truth.theta}},
                          {"fast_hd_heading_err_deg",
