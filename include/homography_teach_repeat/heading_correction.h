@@ -1,0 +1,54 @@
+// The per-frame heading correction of the μ mode (paper 002): vertical lines of the current image
+// matched against those of a reference keyframe, robust 1D homography (LMedS), heading from μ.
+// The repeat node and the calibration tool call this; every failure is a status, never an angle.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "homography_teach_repeat/heading_1d.h"
+#include "homography_teach_repeat/homography_1d.h"
+#include "homography_teach_repeat/status.h"
+#include "homography_teach_repeat/vertical_line_matcher.h"
+#include "homography_teach_repeat/vertical_lines.h"
+
+namespace homography_teach_repeat {
+
+struct HeadingCorrectionOptions {
+  LineMatchOptions matching;
+  Homography1dOptions homography;
+  int min_inliers = 5;  // fewer agreeing lines than this: kNoConsensus
+  // LMedS scales its threshold with the median residual, so on unrelated lines it would accept
+  // anything: a noise estimate σ̂ above this [px] is reported as kNoConsensus.
+  double max_sigma_px = 3.0;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct HeadingCorrection {
+  double theta = 0.0;  // θ12 [rad] from μ: the current camera's yaw relative to the reference
+  double mu = 0.0;     // h12/h22 of the centred H [px]
+  Eigen::Matrix2d H = Eigen::Matrix2d::Identity();
+  int line_matches = 0;
+  int inliers = 0;
+  double sigma_px = 0.0;  // σ̂ of the LMedS fit
+};
+
+class HeadingCorrector {
+ public:
+  // Throws std::invalid_argument on invalid options or camera.
+  HeadingCorrector(const HeadingCorrectionOptions& options, const LineCamera& camera);
+
+  // Status: kTooFewPoints (fewer than 3 line matches: e.g. no vertical structure, or the lines of
+  // the two images have opposite polarities), kNoConsensus (fewer than min_inliers agree),
+  // or σ̂ > max_sigma_px), kDegenerate, kInvalidInput (non-finite lines).
+  Expected<HeadingCorrection> estimate(const std::vector<VerticalLine>& reference,
+                                       const std::vector<VerticalLine>& current) const;
+
+ private:
+  HeadingCorrectionOptions options_;
+  LineCamera camera_;
+};
+
+}  // namespace homography_teach_repeat
