@@ -85,10 +85,13 @@ TEST(VerticalLines, AngularTolerance) {
   for (const auto& l : *lines) EXPECT_LT(l.x, 200.0);
 }
 
-// Endpoints are undistorted before x is taken: with a single-parameter radial lens the image of
-// the vertical line x_u = 420 is curved, and x comes back as 420.
-TEST(VerticalLines, DistortionIsCorrected) {
-  const PinholeCamera lens = camera("single_parameter_radial", {-0.08});
+// Endpoints are undistorted before x is taken: under radial distortion the image of the vertical
+// line x_u = 420 is curved, and x comes back as 420. Both lens models of the issue: the
+// single-parameter radial model of paper 002 and ROS's plumb_bob.
+class VerticalLinesDistortion : public ::testing::TestWithParam<std::pair<std::string, std::vector<double>>> {};
+
+TEST_P(VerticalLinesDistortion, DistortionIsCorrected) {
+  const PinholeCamera lens = camera(GetParam().first, GetParam().second);
   const double x_undistorted = 420.0;
   cv::Mat image(480, 640, CV_8UC1);
   for (int y = 0; y < 480; ++y) {
@@ -103,16 +106,20 @@ TEST(VerticalLines, DistortionIsCorrected) {
   ASSERT_TRUE(with_lens.isOk());
   ASSERT_GE(with_lens->size(), 1u);
   // The curve's ends, which jump a whole pixel, may come out as short separate pieces.
-  auto longest = [](const std::vector<VerticalLine>& lines) {
-    return *std::max_element(lines.begin(), lines.end(),
-                             [](auto& a, auto& b) { return a.length < b.length; });
-  };
-  EXPECT_NEAR(longest(*with_lens).x, x_undistorted, 0.3);
-  EXPECT_GT(longest(*with_lens).length, 250.0);
+  const VerticalLine longest = *std::max_element(
+      with_lens->begin(), with_lens->end(), [](auto& a, auto& b) { return a.length < b.length; });
+  EXPECT_NEAR(longest.x, x_undistorted, 0.3);
+  EXPECT_GT(longest.length, 250.0);
   // In undistorted pixels the line is vertical at x_u along its whole length.
-  EXPECT_NEAR(longest(*with_lens).top_undistorted.x(), x_undistorted, 0.3);
-  EXPECT_NEAR(longest(*with_lens).bottom_undistorted.x(), x_undistorted, 0.3);
+  EXPECT_NEAR(longest.top_undistorted.x(), x_undistorted, 0.3);
+  EXPECT_NEAR(longest.bottom_undistorted.x(), x_undistorted, 0.3);
 }
+
+INSTANTIATE_TEST_SUITE_P(
+    LensModels, VerticalLinesDistortion,
+    ::testing::Values(std::make_pair(std::string("single_parameter_radial"), std::vector<double>{-0.08}),
+                      std::make_pair(std::string("plumb_bob"),
+                                     std::vector<double>{-0.08, 0.01, 0.0005, -0.0003, 0.0})));
 
 TEST(VerticalLines, NoVerticalStructureGivesNoLines) {
   VerticalLineExtractor extractor;
