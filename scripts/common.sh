@@ -14,7 +14,7 @@ HTR_DEBIAN_PACKAGES=(
   catkin catkin-lint rosbash
   libroscpp-dev librosbag-dev python3-rosbag librostest-dev python3-rostest
   libcv-bridge-dev libimage-transport-dev libdiagnostic-updater-dev
-  libnav-msgs-dev libvisualization-msgs-dev libtf2-ros-dev libtf2-eigen-dev
+  libnav-msgs-dev libvisualization-msgs-dev libtf2-ros-dev libtf2-eigen-dev libstd-srvs-dev
   ros-std-msgs ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-diagnostic-msgs
   libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev googletest libbenchmark-dev

@@ -3,6 +3,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace homography_teach_repeat {
@@ -83,6 +84,33 @@ HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_
   msg.inliers = static_cast<uint32_t>(homography.inliers.size());
   msg.rms_transfer_error_px = homography.rms_transfer_error_px;
   return msg;
+}
+
+Expected<Pose2D> toPose2D(const geometry_msgs::Pose& pose) {
+  const auto& p = pose.position;
+  const auto& q = pose.orientation;
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(q.x) ||
+      !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w)) {
+    return Status(StatusCode::kInvalidInput, "pose has NaN/Inf values");
+  }
+  const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (std::abs(norm - 1.0) > 1e-3) {
+    return Status(StatusCode::kInvalidInput, "pose orientation is not a unit quaternion");
+  }
+  // Yaw about z of the rotation (REP-103, Tait-Bryan z-y-x).
+  const double yaw = std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+  return Pose2D(p.x, p.y, yaw);
+}
+
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform) {
+  Eigen::Isometry3d iso = Eigen::Isometry3d::Identity();
+  iso.translation() = Eigen::Vector3d(transform.translation.x, transform.translation.y,
+                                      transform.translation.z);
+  iso.linear() = Eigen::Quaterniond(transform.rotation.w, transform.rotation.x,
+                                    transform.rotation.y, transform.rotation.z)
+                     .normalized()
+                     .toRotationMatrix();
+  return iso;
 }
 
 }  // namespace ros_conversions

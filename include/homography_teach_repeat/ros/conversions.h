@@ -2,6 +2,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Transform.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
@@ -9,6 +12,7 @@
 
 #include "homography_teach_repeat/HomographyStamped.h"
 #include "homography_teach_repeat/pinhole_camera.h"
+#include "homography_teach_repeat/planar_pose.h"
 #include "homography_teach_repeat/robust_homography.h"
 #include "homography_teach_repeat/status.h"
 
@@ -25,6 +29,13 @@ Expected<PinholeCamera> toPinholeCamera(const sensor_msgs::CameraInfo& info);
 // Image message -> 8-bit grey or BGR cv::Mat, sharing the buffer where possible. kInvalidInput
 // naming the encoding for anything cv_bridge cannot turn into mono8/bgr8, and for empty images.
 Expected<cv::Mat> toCvImage(const sensor_msgs::ImageConstPtr& image);
+
+// Planar part of a 3D pose (REP-103: x, y, yaw about z). kInvalidInput for non-finite values or a
+// quaternion that is not (close to) unit.
+Expected<Pose2D> toPose2D(const geometry_msgs::Pose& pose);
+
+// geometry_msgs transform -> Eigen isometry.
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform);
 
 HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,
                         const std_msgs::Header& header, const std::string& reference);

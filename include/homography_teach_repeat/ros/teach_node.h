@@ -1,0 +1,80 @@
+// teach_node: records a route while the robot is driven (paper 000/002 teach phase). A thin
+// wrapper over TeachSession (core): parameters in, messages out.
+//
+// Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber),
+//             odom (nav_msgs/Odometry; the pose of base_frame in the odometry frame)
+// tf:         base_frame -> the image's optical frame (the camera mount; must be level)
+// Publishes:  ~status (homography_teach_repeat/TeachStatus, latched), /diagnostics
+// Services:   ~finish (std_srvs/Trigger): estimates the planes (if first_plane_distance > 0),
+//             writes them into the route and stops recording; also run on clean shutdown.
+// Parameters: see config/teach_node.yaml
+// Images and odometry are synchronised by timestamp (odometry interpolated at the image stamp),
+// never by arrival order; an image whose stamp has no odometry yet is dropped with a warning.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "homography_teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/status.h"
+#include "homography_teach_repeat/teach_session.h"
+
+namespace homography_teach_repeat {
+
+class TeachNode {
+ public:
+  // Throws std::runtime_error naming the parameter on a missing or invalid parameter.
+  TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+  // Finishes the route (plane estimation) if ~finish was not called.
+  ~TeachNode();
+
+ private:
+  void onImage(const sensor_msgs::ImageConstPtr& image,
+               const sensor_msgs::CameraInfoConstPtr& camera_info);
+  void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
+  bool onFinish(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+  Status startSession(const sensor_msgs::CameraInfo& camera_info);
+  Status finish(std::string* summary);
+  void publishStatus(const std::string& state, const std::string& message);
+  void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  TeachOptions options_;
+  std::string base_frame_;
+  double max_camera_tilt_rad_ = 0.05;
+
+  std::mutex mutex_;  // image, odometry and service callbacks may run concurrently
+  std::optional<TeachSession> session_;
+  OdometryBuffer odometry_;
+  bool finished_ = false;
+  std::string state_ = "waiting";
+  std::string last_message_ = "no image received yet";
+  Status last_error_ = Status::ok();
+  unsigned images_ = 0;
+  unsigned dropped_ = 0;
+
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  image_transport::ImageTransport image_transport_;
+  image_transport::CameraSubscriber camera_subscriber_;
+  ros::Subscriber odometry_subscriber_;
+  ros::Publisher status_publisher_;
+  ros::ServiceServer finish_service_;
+  diagnostic_updater::Updater diagnostics_;
+  ros::Timer diagnostics_timer_;
+};
+
+}  // namespace homography_teach_repeat

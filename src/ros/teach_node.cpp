@@ -1,0 +1,234 @@
+#include "homography_teach_repeat/ros/teach_node.h"
+
+#include <stdexcept>
+
+#include "homography_teach_repeat/TeachStatus.h"
+#include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/ros/parameters.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
+  TeachOptions options;
+  try {
+    options.route_directory = readRequiredParameter<std::string>(nh, "route_directory");
+    options.overwrite = readParameter(nh, "overwrite", options.overwrite);
+    options.features.type = featureTypeFromString(
+        readParameter<std::string>(nh, "feature_type", toString(options.features.type)));
+    if (!isFeatureTypeAvailable(options.features.type)) {
+      throw std::invalid_argument("feature_type '" + toString(options.features.type) +
+                                  "' is not available in this OpenCV build; available: " +
+                                  availableFeatureTypes());
+    }
+    options.features.max_features = readParameter(nh, "max_features", 1500);
+    options.keyframes.distance = readParameter(nh, "keyframe_distance", options.keyframes.distance);
+    options.keyframes.angle = readParameter(nh, "keyframe_angle", options.keyframes.angle);
+    options.first_plane_distance =
+        readParameter(nh, "first_plane_distance", options.first_plane_distance);
+    options.lines.max_angle_deg =
+        readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
+    options.lines.min_length_px = readParameter(nh, "line_min_length_px", options.lines.min_length_px);
+    options.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
+  }
+  return options;
+}
+
+}  // namespace
+
+TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
+    : nh_(nh),
+      private_nh_(private_nh),
+      options_(readTeachOptions(private_nh)),
+      base_frame_(readParameter<std::string>(private_nh, "base_frame", "base_link")),
+      max_camera_tilt_rad_(readParameter(private_nh, "max_camera_tilt", 0.05)),
+      odometry_(readParameter(private_nh, "odometry_buffer_seconds", 5.0),
+                readParameter(private_nh, "max_odometry_gap", 0.5)),
+      tf_listener_(tf_buffer_),
+      image_transport_(nh),
+      diagnostics_(nh, private_nh) {
+  status_publisher_ = private_nh_.advertise<TeachStatus>("status", 1, /*latch=*/true);
+  publishStatus("waiting", "waiting for camera/image_raw, camera/camera_info and odom");
+  odometry_subscriber_ = nh_.subscribe("odom", 50, &TeachNode::onOdometry, this);
+  camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 2, &TeachNode::onImage, this);
+  finish_service_ = private_nh_.advertiseService("finish", &TeachNode::onFinish, this);
+  diagnostics_.setHardwareID("teach_node");
+  diagnostics_.add("teach", this, &TeachNode::produceDiagnostics);
+  diagnostics_timer_ =
+      nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  ROS_INFO("teach_node: recording to '%s' (%s features, keyframe every %.2f m or %.2f rad)",
+           options_.route_directory.c_str(), toString(options_.features.type).c_str(),
+           options_.keyframes.distance, options_.keyframes.angle);
+}
+
+TeachNode::~TeachNode() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (session_ && !finished_) {
+    std::string summary;
+    const Status status = finish(&summary);
+    if (status.isOk()) {
+      ROS_INFO("teach_node: route finished on shutdown: %s", summary.c_str());
+    } else {
+      ROS_ERROR("teach_node: finishing the route on shutdown failed: %s", status.toString().c_str());
+    }
+  }
+}
+
+void TeachNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
+  const auto pose = ros_conversions::toPose2D(odometry->pose.pose);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!pose) {
+    last_error_ = Status(StatusCode::kInvalidInput, "odometry rejected: " + pose.status().message());
+    ROS_WARN_THROTTLE(5.0, "teach_node: %s", last_error_.message().c_str());
+    return;
+  }
+  const Status added = odometry_.add(odometry->header.stamp.toSec(), *pose);
+  if (!added.isOk()) {
+    last_error_ = added;
+    ROS_WARN_THROTTLE(5.0, "teach_node: %s", added.message().c_str());
+  }
+}
+
+Status TeachNode::startSession(const sensor_msgs::CameraInfo& camera_info) {
+  const auto camera = ros_conversions::toPinholeCamera(camera_info);
+  if (!camera) return camera.status();
+  geometry_msgs::TransformStamped mount;
+  try {
+    mount = tf_buffer_.lookupTransform(base_frame_, camera_info.header.frame_id, ros::Time(0),
+                                       ros::Duration(0.5));
+  } catch (const tf2::TransformException& e) {
+    return Status(StatusCode::kInvalidInput, "no tf " + base_frame_ + " -> " +
+                                                 camera_info.header.frame_id + ": " + e.what());
+  }
+  Pose2D mount_pose;
+  try {
+    const CameraMount camera_mount =
+        CameraMount::fromExtrinsic(ros_conversions::toIsometry(mount.transform), max_camera_tilt_rad_);
+    mount_pose = camera_mount.forwardFrame();
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, std::string("camera mount: ") + e.what());
+  }
+  auto session = TeachSession::start(options_, camera->calibration(), mount_pose);
+  if (!session) return session.status();
+  session_.emplace(std::move(*session));
+  return Status::ok();
+}
+
+void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
+                        const sensor_msgs::CameraInfoConstPtr& camera_info) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++images_;
+  if (finished_) return;
+  if (!session_) {
+    const Status started = startSession(*camera_info);
+    if (!started.isOk()) {
+      last_error_ = started;
+      publishStatus("error", started.message());
+      ROS_ERROR_THROTTLE(5.0, "teach_node: cannot start the route: %s", started.toString().c_str());
+      return;
+    }
+    publishStatus("teaching", "recording");
+  }
+  const auto cv_image = ros_conversions::toCvImage(image);
+  if (!cv_image) {
+    ++dropped_;
+    last_error_ = cv_image.status();
+    ROS_WARN_THROTTLE(5.0, "teach_node: image dropped: %s", cv_image.status().toString().c_str());
+    return;
+  }
+  const double stamp = image->header.stamp.toSec();
+  const auto pose = odometry_.poseAt(stamp);
+  if (!pose) {
+    ++dropped_;
+    last_error_ = pose.status();
+    ROS_WARN_THROTTLE(5.0, "teach_node: image at %.3f dropped: %s", stamp,
+                      pose.status().toString().c_str());
+    return;
+  }
+  const auto stored = session_->offer(*cv_image, *pose, stamp);
+  if (!stored) {
+    ++dropped_;
+    last_error_ = stored.status();
+    ROS_ERROR_THROTTLE(2.0, "teach_node: keyframe not stored: %s", stored.status().toString().c_str());
+    publishStatus("teaching", stored.status().message());
+    return;
+  }
+  if (*stored) {
+    const auto& k = session_->route().keyframes.back();
+    ROS_INFO("teach_node: keyframe %d at (%.2f, %.2f, %.1f deg), t = %.3f", k.index, k.pose.x,
+             k.pose.y, k.pose.yaw * 180.0 / M_PI, stamp);
+    publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored");
+  }
+}
+
+Status TeachNode::finish(std::string* summary) {
+  if (!session_) return Status(StatusCode::kInvalidInput, "no keyframe recorded: nothing to finish");
+  finished_ = true;
+  if (!(options_.first_plane_distance > 0.0)) {
+    *summary = std::to_string(session_->keyframeCount()) +
+               " keyframes; no planes (first_plane_distance is 0)";
+    publishStatus("finished", *summary);
+    return Status::ok();
+  }
+  const auto report = session_->finish();
+  if (!report) {
+    publishStatus("finished", "planes not estimated: " + report.status().message());
+    return report.status();
+  }
+  *summary = std::to_string(report->keyframes) + " keyframes, " + std::to_string(report->planes) +
+             " with a plane";
+  for (const auto& m : report->messages) *summary += "; " + m;
+  publishStatus("finished", *summary);
+  return Status::ok();
+}
+
+bool TeachNode::onFinish(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (finished_) {
+    response.success = true;
+    response.message = "already finished: " + last_message_;
+    return true;
+  }
+  std::string summary;
+  const Status status = finish(&summary);
+  response.success = status.isOk();
+  response.message = status.isOk() ? summary : status.toString();
+  if (status.isOk()) {
+    ROS_INFO("teach_node: route finished: %s", summary.c_str());
+  } else {
+    ROS_ERROR("teach_node: finish: %s", status.toString().c_str());
+  }
+  return true;
+}
+
+void TeachNode::publishStatus(const std::string& state, const std::string& message) {
+  state_ = state;
+  last_message_ = message;
+  TeachStatus status;
+  status.header.stamp = ros::Time::now();
+  status.route_directory = options_.route_directory;
+  status.keyframes = session_ ? static_cast<uint32_t>(session_->keyframeCount()) : 0;
+  status.state = state;
+  status.message = message;
+  status_publisher_.publish(status);
+}
+
+void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (state_ == "error") {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, last_message_);
+  } else if (!last_error_.isOk()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_.toString());
+  } else {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, state_ + ": " + last_message_);
+  }
+  stat.add("state", state_);
+  stat.add("keyframes", session_ ? session_->keyframeCount() : 0);
+  stat.add("images", images_);
+  stat.add("dropped images", dropped_);
+  stat.add("route", options_.route_directory);
+}
+
+}  // namespace homography_teach_repeat
