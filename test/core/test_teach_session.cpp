@@ -7,44 +7,20 @@
 #include "homography_teach_repeat/fast_hd.h"
 #include "homography_teach_repeat/plane_estimation.h"
 #include "homography_teach_repeat/teach_session.h"
-#include "test_images.h"
+#include "synthetic_route.h"
 
 using namespace homography_teach_repeat;
 
 namespace {
-
-CameraCalibration calibration() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
-
-// A textured wall that fills the first image exactly; every other image is the exact warp of it
-// (MATH.md §1.2), so the ground truth of poses and planes is known.
-struct Scene {
-  cv::Mat texture = test_support::makeTexture(640, 480, 3);
-  ScenePlane plane{Eigen::Vector3d(std::sin(0.3), 0.0, std::cos(0.3)), 4.0};
-  cv::Mat imageAt(const PlanarPose& camera_pose) const {
-    const Eigen::Matrix3d H = planeInducedHomography(PinholeCamera(calibration()), camera_pose, plane);
-    return test_support::warp(texture, H);
-  }
-};
-
-std::string temporaryDirectory() {
-  char pattern[] = "/tmp/htr_teach_test_XXXXXX";
-  return std::string(::mkdtemp(pattern));
-}
-
+using test_support::makeTemporaryDirectory;
+using test_support::SyntheticWall;
+CameraCalibration calibration() { return test_support::syntheticCalibration(); }
 }  // namespace
 
 // Six keyframes along a gently turning path towards the wall; the planes estimated at the end
 // agree with the truth propagated to every keyframe (MATH.md §2.2).
 TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
-  const std::string dir = temporaryDirectory();
+  const std::string dir = makeTemporaryDirectory("htr_teach_test");
   TeachOptions options;
   options.route_directory = dir;
   options.features.type = FeatureType::kAkaze;
@@ -52,7 +28,7 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
   options.first_plane_distance = 4.0;
   auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
   ASSERT_TRUE(session.isOk()) << session.status().toString();
-  const Scene scene;
+  const SyntheticWall scene;
   std::vector<PlanarPose> camera_poses;
   int stored = 0;
   for (int step = 0; step <= 15; ++step) {
@@ -86,13 +62,13 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
 }
 
 TEST(TeachSession, BadInputAndTooFewKeyframes) {
-  const std::string dir = temporaryDirectory();
+  const std::string dir = makeTemporaryDirectory("htr_teach_test");
   TeachOptions options;
   options.route_directory = dir;
   options.first_plane_distance = 3.0;
   auto session = TeachSession::start(options, calibration(), Pose2D());
   ASSERT_TRUE(session.isOk());
-  const Scene scene;
+  const SyntheticWall scene;
   EXPECT_EQ(session->offer(cv::Mat(), Pose2D(), 1.0).status().code(), StatusCode::kInvalidInput);
   EXPECT_EQ(session->offer(cv::Mat(240, 320, CV_8UC1, cv::Scalar(0)), Pose2D(), 1.0).status().code(),
             StatusCode::kInvalidInput);

@@ -1,0 +1,121 @@
+// The repeat phase without ROS: localizes the current image against the keyframes of a taught
+// route and gives the pose of base_link in the route frame (the odometry frame of the teach run,
+// in which the keyframe poses are stored) with its covariance, or the heading correction.
+//
+// Modes:
+//  - fast_hd: features matched to the reference keyframe, robust homography, Fast-HD with the
+//    keyframe's plane, covariance (MATH.md §3.4) and the 3-DoF refinement (planar_pose_estimator.h);
+//  - mu: vertical lines matched to the keyframe's, 1D homography, heading from μ (paper 002);
+//  - classic: the classic decomposition (cv::decomposeHomographyMat) with the positive-depth test,
+//    the solution whose normal is closest to the keyframe's plane, scaled by its distance
+//    (a baseline: no covariance model, reported as unknown).
+// Reference keyframe: the tracked one, then its neighbours (k+1, k−1, k+2, ...) when it fails;
+// tracking moves on when the robot is closer to the next keyframe than to the current one.
+// Lost tracking (every candidate fails): the last good current image becomes a temporary
+// reference (paper 000's outdoor experiment) and estimates are flagged `degraded`; after
+// `max_degraded_frames` such frames, or when that fails too, localization reports failure.
+// A failed estimate never gives a pose.
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/feature_extractor.h"
+#include "homography_teach_repeat/feature_matcher.h"
+#include "homography_teach_repeat/heading_correction.h"
+#include "homography_teach_repeat/pinhole_camera.h"
+#include "homography_teach_repeat/planar_pose.h"
+#include "homography_teach_repeat/planar_pose_estimator.h"
+#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/status.h"
+#include "homography_teach_repeat/vertical_lines.h"
+
+namespace homography_teach_repeat {
+
+enum class RepeatMode { kFastHd, kMu, kClassic };
+// "fast_hd", "mu", "classic"; throws std::invalid_argument naming the accepted values.
+RepeatMode repeatModeFromString(const std::string& name);
+std::string toString(RepeatMode mode);
+
+struct RepeatOptions {
+  RepeatMode mode = RepeatMode::kFastHd;
+  int max_features = 1500;
+  MatchOptions matching;
+  PlanarPoseEstimatorOptions pose;
+  HeadingCorrectionOptions heading;
+  VerticalLineOptions lines;
+  int min_inliers = 15;          // fewer homography inliers: the reference fails
+  int neighbour_search = 2;      // keyframes tried on each side of the tracked one
+  int max_degraded_frames = 30;  // consecutive frames on a temporary reference
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct RepeatEstimate {
+  RepeatMode mode = RepeatMode::kFastHd;
+  int keyframe = -1;      // reference keyframe; for a degraded estimate, the keyframe the
+                          // temporary reference was localized against
+  bool degraded = false;  // localized against the temporary reference
+  int matches = 0;        // tentative matches (features or lines)
+  int inliers = 0;
+  bool has_pose = false;  // false in mu mode
+  Pose2D base_pose;       // base_link in the route frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw), route frame
+  bool covariance_known = false;                         // false in classic mode
+  PlanarPose camera_relative;  // current camera in the reference camera frame (MATH.md §1.1)
+  double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
+  double mu = 0.0;                  // mu mode: h12/h22 [px]
+};
+
+class RepeatLocalizer {
+ public:
+  // Loads every keyframe's features and lines. Status kInvalidInput naming the file for a
+  // corrupt keyframe; kInvalidInput when fast_hd/classic mode meets a route without planes.
+  static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
+
+  // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the
+  // failure of the last reference tried (never a pose).
+  Expected<RepeatEstimate> localize(const cv::Mat& image);
+
+  // Start anywhere: tries every keyframe and tracks the one with most inliers.
+  Expected<RepeatEstimate> initializeGlobally(const cv::Mat& image);
+
+  void setTrackedKeyframe(int keyframe);
+  int trackedKeyframe() const { return tracked_; }
+  int keyframeCount() const { return static_cast<int>(keyframes_.size()); }
+  const Route& route() const { return route_; }
+  const PinholeCamera& camera() const { return camera_; }
+
+ private:
+  struct Reference {
+    ImageFeatures features;
+    std::vector<VerticalLine> lines;
+    Pose2D base_pose;                 // route frame
+    std::optional<ScenePlane> plane;  // camera frame of this reference
+    double heading_offset = 0.0;      // mu mode: yaw of this reference relative to its keyframe
+  };
+
+  RepeatLocalizer(const Route& route, const RepeatOptions& options);
+  Expected<RepeatEstimate> localizeAgainst(const Reference& reference, int keyframe,
+                                           const ImageFeatures& features,
+                                           const std::vector<VerticalLine>& lines) const;
+  void advanceTracking(const RepeatEstimate& estimate);
+
+  Route route_;
+  RepeatOptions options_;
+  PinholeCamera camera_;
+  CameraMount mount_;
+  FeatureExtractor extractor_;
+  VerticalLineExtractor line_extractor_;
+  std::vector<Reference> keyframes_;
+  int tracked_ = 0;
+  std::optional<Reference> temporary_;
+  int temporary_keyframe_ = -1;
+  int degraded_frames_ = 0;
+};
+
+}  // namespace homography_teach_repeat

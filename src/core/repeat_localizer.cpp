@@ -1,0 +1,282 @@
+#include "homography_teach_repeat/repeat_localizer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "homography_teach_repeat/homography_decomposition.h"
+#include "homography_teach_repeat/plane_estimation.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+// The reference keyframe's yaw rotates the relative covariance into the route frame.
+Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double yaw) {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  R.topLeftCorner<2, 2>() << std::cos(yaw), -std::sin(yaw), std::sin(yaw), std::cos(yaw);
+  return R * covariance * R.transpose();
+}
+
+}  // namespace
+
+RepeatMode repeatModeFromString(const std::string& name) {
+  if (name == "fast_hd") return RepeatMode::kFastHd;
+  if (name == "mu") return RepeatMode::kMu;
+  if (name == "classic") return RepeatMode::kClassic;
+  throw std::invalid_argument("unknown mode '" + name + "' (fast_hd, mu, classic)");
+}
+
+std::string toString(RepeatMode mode) {
+  switch (mode) {
+    case RepeatMode::kFastHd: return "fast_hd";
+    case RepeatMode::kMu: return "mu";
+    case RepeatMode::kClassic: return "classic";
+  }
+  return "unknown";
+}
+
+void RepeatOptions::validate() const {
+  if (max_features < 1) throw std::invalid_argument("max_features must be >= 1");
+  matching.validate();
+  pose.validate();
+  heading.validate();
+  lines.validate();
+  if (min_inliers < 4) throw std::invalid_argument("min_inliers must be >= 4");
+  if (neighbour_search < 0) throw std::invalid_argument("neighbour_search must be >= 0");
+  if (max_degraded_frames < 0) throw std::invalid_argument("max_degraded_frames must be >= 0");
+}
+
+RepeatLocalizer::RepeatLocalizer(const Route& route, const RepeatOptions& options)
+    : route_(route),
+      options_(options),
+      camera_(route.info.camera),
+      mount_(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw),
+      extractor_(FeatureOptions{route.info.feature_type, options.max_features}),
+      line_extractor_(options.lines) {}
+
+Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
+  try {
+    options.validate();
+    if (route.keyframes.empty()) {
+      return Status(StatusCode::kInvalidInput, "route '" + route.directory + "' has no keyframe");
+    }
+    RepeatLocalizer localizer(route, options);
+    for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
+      Reference reference;
+      reference.base_pose = route.keyframes[k].pose;
+      reference.plane = route.keyframes[k].plane;
+      if (options.mode == RepeatMode::kMu) {
+        auto lines = loadKeyframeLines(route, k);
+        if (!lines) return lines.status();
+        reference.lines = std::move(*lines);
+      } else {
+        if (!reference.plane) {
+          return Status(StatusCode::kInvalidInput,
+                        "keyframe " + std::to_string(k) + " of '" + route.directory +
+                            "' has no plane: " + toString(options.mode) +
+                            " mode needs the plane estimation of the teach phase (or use mu)");
+        }
+        auto features = loadKeyframeFeatures(route, k);
+        if (!features) return features.status();
+        reference.features = std::move(*features);
+      }
+      localizer.keyframes_.push_back(std::move(reference));
+    }
+    return localizer;
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+}
+
+void RepeatLocalizer::setTrackedKeyframe(int keyframe) {
+  tracked_ = std::clamp(keyframe, 0, keyframeCount() - 1);
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& reference, int keyframe,
+                                                          const ImageFeatures& features,
+                                                          const std::vector<VerticalLine>& lines) const {
+  RepeatEstimate estimate;
+  estimate.mode = options_.mode;
+  estimate.keyframe = keyframe;
+  if (options_.mode == RepeatMode::kMu) {
+    const HeadingCorrector corrector(options_.heading, LineCamera{camera_.fx(), camera_.cx()});
+    const auto correction = corrector.estimate(reference.lines, lines);
+    if (!correction) return correction.status();
+    estimate.matches = correction->line_matches;
+    estimate.inliers = correction->inliers;
+    estimate.mu = correction->mu;
+    estimate.heading_correction = wrapToPi(reference.heading_offset + correction->theta);
+    return estimate;
+  }
+  const auto dmatches = matchFeatures(reference.features, features, options_.matching);
+  if (!dmatches) return dmatches.status();
+  PointMatches matches = toPointMatches(reference.features, features, *dmatches);
+  if (camera_.hasDistortion()) {
+    for (auto& m : matches) {
+      const cv::Point2d a = camera_.undistortPixel({m.reference.x(), m.reference.y()});
+      const cv::Point2d b = camera_.undistortPixel({m.current.x(), m.current.y()});
+      m.reference = Eigen::Vector2d(a.x, a.y);
+      m.current = Eigen::Vector2d(b.x, b.y);
+    }
+  }
+  estimate.matches = static_cast<int>(matches.size());
+  PlanarPose camera_relative;
+  if (options_.mode == RepeatMode::kFastHd) {
+    const auto pose = estimatePlanarPose(matches, camera_, *reference.plane, options_.pose);
+    if (!pose) return pose.status();
+    estimate.inliers = static_cast<int>(pose->inliers.size());
+    camera_relative = pose->pose;
+    const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(camera_relative);
+    estimate.covariance =
+        rotateCovariance(J * pose->covariance * J.transpose(), reference.base_pose.yaw);
+    estimate.covariance_known = true;
+  } else {
+    const auto robust = estimateHomographyRobust(matches, options_.pose.robust);
+    if (!robust) return robust.status();
+    estimate.inliers = static_cast<int>(robust->inliers.size());
+    std::vector<Eigen::Vector2d> pixels;
+    for (const int i : robust->inliers) pixels.push_back(matches[i].reference);
+    const auto all = decomposeHomographyClassic(robust->H, camera_);
+    if (!all) return all.status();
+    const auto visible = filterByPositiveDepth(*all, camera_, pixels);
+    if (visible.empty()) {
+      return Status(StatusCode::kDegenerate, "classic decomposition: no solution in front");
+    }
+    const HomographyDecomposition* best = &visible.front();
+    for (const auto& d : visible) {
+      if (d.normal.dot(reference.plane->normal) > best->normal.dot(reference.plane->normal)) best = &d;
+    }
+    camera_relative = best->planarPose(reference.plane->distance);
+    estimate.covariance = Eigen::Matrix3d::Identity() * 1e6;  // no covariance model
+  }
+  if (estimate.inliers < options_.min_inliers) {
+    return Status(StatusCode::kNoConsensus,
+                  std::to_string(estimate.inliers) + " inliers against keyframe " +
+                      std::to_string(keyframe) + ", need " + std::to_string(options_.min_inliers));
+  }
+  estimate.has_pose = true;
+  estimate.camera_relative = camera_relative;
+  estimate.base_pose = reference.base_pose.compose(mount_.cameraToBase(camera_relative));
+  estimate.heading_correction = wrapToPi(estimate.base_pose.yaw - route_.keyframes[keyframe].pose.yaw);
+  return estimate;
+}
+
+void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
+  tracked_ = estimate.keyframe;
+  if (!estimate.has_pose) return;
+  // Move on while the robot is closer to the next keyframe than to the tracked one.
+  while (tracked_ + 1 < keyframeCount()) {
+    const Pose2D& here = keyframes_[tracked_].base_pose;
+    const Pose2D& next = keyframes_[tracked_ + 1].base_pose;
+    const Pose2D& robot = estimate.base_pose;
+    if (std::hypot(next.x - robot.x, next.y - robot.y) >= std::hypot(here.x - robot.x, here.y - robot.y)) {
+      break;
+    }
+    ++tracked_;
+  }
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image) {
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
+  if (image.cols != camera_.width() || image.rows != camera_.height()) {
+    return Status(StatusCode::kInvalidInput,
+                  "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                      ", the route's camera is " + std::to_string(camera_.width()) + "x" +
+                      std::to_string(camera_.height()));
+  }
+  ImageFeatures features;
+  std::vector<VerticalLine> lines;
+  if (options_.mode == RepeatMode::kMu) {
+    auto extracted = line_extractor_.extract(image, &camera_);
+    if (!extracted) return extracted.status();
+    lines = std::move(*extracted);
+  } else {
+    auto extracted = extractor_.extract(image);
+    if (!extracted) return extracted.status();
+    features = std::move(*extracted);
+  }
+  std::vector<int> candidates{tracked_};
+  for (int offset = 1; offset <= options_.neighbour_search; ++offset) {
+    if (tracked_ + offset < keyframeCount()) candidates.push_back(tracked_ + offset);
+    if (tracked_ - offset >= 0) candidates.push_back(tracked_ - offset);
+  }
+  Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
+  for (const int k : candidates) {
+    auto estimate = localizeAgainst(keyframes_[static_cast<std::size_t>(k)], k, features, lines);
+    if (!estimate) {
+      last_failure = Status(estimate.status().code(),
+                            "keyframe " + std::to_string(k) + ": " + estimate.status().message());
+      continue;
+    }
+    // This frame becomes the temporary reference for when tracking is lost.
+    Reference current;
+    current.features = std::move(features);
+    current.lines = std::move(lines);
+    if (estimate->has_pose) {
+      current.base_pose = estimate->base_pose;
+      const auto plane = transferPlane(*keyframes_[static_cast<std::size_t>(k)].plane,
+                                       estimate->camera_relative);
+      if (plane) current.plane = *plane;
+    } else {
+      current.heading_offset = estimate->heading_correction;
+    }
+    if (!estimate->has_pose || current.plane) {
+      temporary_ = std::move(current);
+      temporary_keyframe_ = k;
+    }
+    degraded_frames_ = 0;
+    advanceTracking(*estimate);
+    return estimate;
+  }
+  if (temporary_ && degraded_frames_ < options_.max_degraded_frames) {
+    auto estimate = localizeAgainst(*temporary_, temporary_keyframe_, features, lines);
+    if (estimate) {
+      estimate->degraded = true;
+      ++degraded_frames_;
+      if (estimate->has_pose) {
+        // Chain: this frame is the next temporary reference (paper 000, outdoor experiment).
+        Reference current;
+        current.features = std::move(features);
+        current.base_pose = estimate->base_pose;
+        const auto plane = transferPlane(*temporary_->plane, estimate->camera_relative);
+        if (plane) {
+          current.plane = *plane;
+          temporary_ = std::move(current);
+        }
+        estimate->heading_correction = wrapToPi(
+            estimate->base_pose.yaw - route_.keyframes[static_cast<std::size_t>(temporary_keyframe_)].pose.yaw);
+      }
+      return estimate;
+    }
+    last_failure = Status(estimate.status().code(),
+                          "temporary reference: " + estimate.status().message() + "; " +
+                              last_failure.message());
+  }
+  return last_failure;
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::initializeGlobally(const cv::Mat& image) {
+  int best_keyframe = -1, best_inliers = -1;
+  for (int k = 0; k < keyframeCount(); ++k) {
+    setTrackedKeyframe(k);
+    const int neighbour_search = options_.neighbour_search;
+    options_.neighbour_search = 0;
+    const int degraded = options_.max_degraded_frames;
+    options_.max_degraded_frames = 0;
+    const auto estimate = localize(image);
+    options_.neighbour_search = neighbour_search;
+    options_.max_degraded_frames = degraded;
+    if (estimate && estimate->inliers > best_inliers) {
+      best_inliers = estimate->inliers;
+      best_keyframe = k;
+    }
+  }
+  if (best_keyframe < 0) {
+    return Status(StatusCode::kNoConsensus, "the image matches no keyframe of the route");
+  }
+  setTrackedKeyframe(best_keyframe);
+  return localize(image);
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,185 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "homography_teach_repeat/repeat_localizer.h"
+#include "synthetic_route.h"
+
+using namespace homography_teach_repeat;
+using test_support::SyntheticWall;
+
+namespace {
+
+// The robot pose (base = camera, mount at the origin) of a camera pose of the synthetic scene.
+Pose2D basePose(const PlanarPose& camera_pose) { return cameraAxesToRep103(camera_pose); }
+
+class RepeatLocalizerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    wall_ = new SyntheticWall();
+    directory_ = test_support::teachSyntheticRoute(*wall_, FeatureType::kAkaze);
+  }
+  static void TearDownTestSuite() {
+    std::filesystem::remove_all(directory_);
+    delete wall_;
+  }
+  static Route route() {
+    auto r = loadRoute(directory_);
+    EXPECT_TRUE(r.isOk()) << r.status().toString();
+    return *r;
+  }
+  static SyntheticWall* wall_;
+  static std::string directory_;
+};
+SyntheticWall* RepeatLocalizerTest::wall_ = nullptr;
+std::string RepeatLocalizerTest::directory_;
+
+}  // namespace
+
+// Fast-HD mode along a path that is 8 cm to the side of the taught one and turned by 2°: the
+// base pose in the route frame within 2 cm / 0.2°, a covariance, and the tracked keyframe moving on.
+TEST_F(RepeatLocalizerTest, FastHdFollowsTheRoute) {
+  RepeatOptions options;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  EXPECT_EQ(localizer->keyframeCount(), 6);
+  int last_keyframe = 0;
+  for (int step = 0; step < 14; ++step) {
+    const double s = 0.1 * step + 0.03;
+    const PlanarPose camera_pose(0.08 * s + 0.08, s, 0.04 * s + 0.035);
+    const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+    ASSERT_TRUE(estimate.isOk()) << step << ": " << estimate.status().toString();
+    EXPECT_FALSE(estimate->degraded);
+    ASSERT_TRUE(estimate->has_pose);
+    EXPECT_TRUE(estimate->covariance_known);
+    const Pose2D truth = basePose(camera_pose);
+    EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.02) << step;
+    EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.02) << step;
+    EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.2 * M_PI / 180.0) << step;
+    const Eigen::Matrix3d& c = estimate->covariance;
+    EXPECT_GT(c(0, 0), 0.0);
+    EXPECT_LT(std::sqrt(c(0, 0) + c(1, 1)), 0.2);
+    EXPECT_GE(localizer->trackedKeyframe(), last_keyframe);
+    last_keyframe = localizer->trackedKeyframe();
+  }
+  EXPECT_GE(last_keyframe, 4);
+}
+
+// μ mode: the heading relative to the keyframe from vertical lines (pure rotation at a keyframe).
+TEST_F(RepeatLocalizerTest, MuModeGivesTheHeading) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Route& r = localizer->route();
+  for (const double yaw : {-0.06, 0.03, 0.08}) {
+    localizer->setTrackedKeyframe(2);
+    const PlanarPose keyframe_camera = rep103ToCameraAxes(r.keyframes[2].pose);
+    const PlanarPose turned(keyframe_camera.x, keyframe_camera.z, keyframe_camera.theta + yaw);
+    const auto estimate = localizer->localize(wall_->imageAt(turned));
+    ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+    EXPECT_FALSE(estimate->has_pose);
+    EXPECT_EQ(estimate->keyframe, 2);
+    EXPECT_NEAR(estimate->heading_correction, yaw, 0.15 * M_PI / 180.0);
+  }
+}
+
+TEST_F(RepeatLocalizerTest, ClassicModeBaseline) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kClassic;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  const PlanarPose camera_pose(0.1, 0.35, 0.03);
+  const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_FALSE(estimate->covariance_known);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(camera_pose).x, 0.05);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(camera_pose).y, 0.05);
+}
+
+// Start anywhere on the route: the best-matching keyframe is found.
+TEST_F(RepeatLocalizerTest, GlobalInitialization) {
+  auto localizer = RepeatLocalizer::create(route(), RepeatOptions());
+  ASSERT_TRUE(localizer.isOk());
+  const PlanarPose camera_pose(0.08 * 1.2, 1.2, 0.04 * 1.2);
+  const auto estimate = localizer->initializeGlobally(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_GE(localizer->trackedKeyframe(), 3);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(camera_pose).x, 0.02);
+}
+
+// Every keyframe failing (here: a min_inliers no keyframe reaches after a strong turn) falls back
+// to the last good frame as a temporary reference, flagged degraded; a frame of another scene
+// gives a failure status and no pose.
+TEST_F(RepeatLocalizerTest, LostTrackingUsesTheTemporaryReferenceThenFails) {
+  RepeatOptions options;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.02, 0.05, 0.01))).isOk());
+  // Another wall texture: nothing matches, not even the temporary reference.
+  const cv::Mat other = test_support::makeTexture(640, 480, 99);
+  const auto lost = localizer->localize(other);
+  EXPECT_FALSE(lost.isOk());
+  // Bad images.
+  EXPECT_EQ(localizer->localize(cv::Mat()).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(localizer->localize(cv::Mat(240, 320, CV_8UC1, cv::Scalar(0))).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_FALSE(localizer->localize(cv::Mat(480, 640, CV_8UC1, cv::Scalar(90))).isOk());
+}
+
+// Frame A is turned 0.12 rad from keyframe 0, frame B 0.24 rad: with min_inliers between what B
+// and A get against the keyframe, A localizes on the keyframe, B fails there and localizes on A
+// (the temporary reference, the same 0.12 rad apart), flagged degraded.
+TEST_F(RepeatLocalizerTest, DegradedWhenOnlyTheLastFrameMatches) {
+  const PlanarPose a(0.0, 0.0, 0.12), b(0.0, 0.0, 0.24);
+  RepeatOptions probe;
+  probe.neighbour_search = 0;
+  probe.max_degraded_frames = 0;
+  auto permissive = RepeatLocalizer::create(route(), probe);
+  ASSERT_TRUE(permissive.isOk());
+  const auto on_a = permissive->localize(wall_->imageAt(a));
+  permissive->setTrackedKeyframe(0);
+  const auto on_b = permissive->localize(wall_->imageAt(b));
+  ASSERT_TRUE(on_a.isOk() && on_b.isOk());
+  ASSERT_GT(on_a->inliers, on_b->inliers + 20) << "the turn must cost keyframe inliers";
+
+  RepeatOptions strict;
+  strict.neighbour_search = 0;
+  strict.min_inliers = (on_a->inliers + on_b->inliers) / 2;
+  auto localizer = RepeatLocalizer::create(route(), strict);
+  ASSERT_TRUE(localizer.isOk());
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(a)).isOk());
+  localizer->setTrackedKeyframe(0);
+  const auto estimate = localizer->localize(wall_->imageAt(b));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_TRUE(estimate->degraded);
+  EXPECT_EQ(estimate->keyframe, 0);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(b).x, 0.03);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(b).y, 0.03);
+  EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - b.theta), 0.0, 0.01);
+  // With no temporary reference allowed, the same frame is a failure, never a pose.
+  RepeatOptions no_fallback = strict;
+  no_fallback.max_degraded_frames = 0;
+  auto strict_only = RepeatLocalizer::create(route(), no_fallback);
+  ASSERT_TRUE(strict_only->localize(wall_->imageAt(a)).isOk());
+  strict_only->setTrackedKeyframe(0);
+  EXPECT_EQ(strict_only->localize(wall_->imageAt(b)).status().code(), StatusCode::kNoConsensus);
+}
+
+TEST(RepeatLocalizer, RouteWithoutPlanesNeedsMuMode) {
+  Route route;
+  route.directory = "/nonexistent";
+  route.info.camera = test_support::syntheticCalibration();
+  RouteKeyframe k;
+  route.keyframes.push_back(k);
+  EXPECT_EQ(RepeatLocalizer::create(route, RepeatOptions()).status().code(),
+            StatusCode::kInvalidInput);
+  Route empty = route;
+  empty.keyframes.clear();
+  EXPECT_EQ(RepeatLocalizer::create(empty, RepeatOptions()).status().code(), StatusCode::kInvalidInput);
+  RepeatOptions bad;
+  bad.min_inliers = 2;
+  EXPECT_EQ(RepeatLocalizer::create(route, bad).status().code(), StatusCode::kInvalidInput);
+  EXPECT_THROW(repeatModeFromString("fast"), std::invalid_argument);
+}
