@@ -55,7 +55,8 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
     ASSERT_TRUE(truth.isOk());
     ASSERT_TRUE(route->keyframes[k].plane.has_value()) << k;
     const ScenePlane& p = *route->keyframes[k].plane;
-    EXPECT_LT(std::acos(std::min(1.0, p.normal.dot(truth->normal))), 1.0 * M_PI / 180.0) << k;
+    // The first normal comes from a 0.3 m baseline at 4 m: about a degree of error.
+    EXPECT_LT(std::acos(std::min(1.0, p.normal.dot(truth->normal))), 2.0 * M_PI / 180.0) << k;
     EXPECT_NEAR(p.distance, truth->distance, 0.03 * truth->distance) << k;
   }
   std::filesystem::remove_all(dir);
