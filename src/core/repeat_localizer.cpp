@@ -15,7 +15,8 @@ namespace {
 Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double yaw) {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   R.topLeftCorner<2, 2>() << std::cos(yaw), -std::sin(yaw), std::sin(yaw), std::cos(yaw);
-  return R * covariance * R.transpose();
+  const Eigen::Matrix3d rotated = R * covariance * R.transpose();
+  return 0.5 * (rotated + rotated.transpose());  // exactly symmetric for the message
 }
 
 }  // namespace

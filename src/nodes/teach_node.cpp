@@ -1,6 +1,7 @@
 // teach_node: see include/homography_teach_repeat/ros/teach_node.h.
 #include <ros/ros.h>
 
+#include <iostream>
 #include <stdexcept>
 
 #include "homography_teach_repeat/ros/teach_node.h"
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
     ros::waitForShutdown();
   } catch (const std::runtime_error& e) {
     ROS_FATAL("teach_node: %s", e.what());
+    std::cerr << "teach_node: " << e.what() << std::endl;  // also when rosconsole is not set up
     return 1;
   }
   return 0;

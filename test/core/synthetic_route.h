@@ -2,10 +2,9 @@
 // are exact plane warps of it (MATH.md §1.2), recorded through TeachSession.
 #pragma once
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include "homography_teach_repeat/fast_hd.h"
@@ -54,24 +53,26 @@ inline std::string makeTemporaryDirectory(const char* prefix) {
 }
 
 // Teaches `steps` images 10 cm apart along a gently turning path (a keyframe every 0.25 m), with
-// the camera mounted at the base origin; returns the route directory.
-inline std::string teachSyntheticRoute(const SyntheticWall& wall, FeatureType type, int steps = 16) {
+// the camera mounted at the base origin, into `directory` (a new temporary one when empty);
+// returns the route directory. Throws std::runtime_error on any failure.
+inline std::string teachSyntheticRoute(const SyntheticWall& wall, FeatureType type, int steps = 16,
+                                       std::string directory = "") {
   TeachOptions options;
-  options.route_directory = makeTemporaryDirectory("htr_synthetic_route");
+  options.route_directory = directory.empty() ? makeTemporaryDirectory("htr_synthetic_route") : directory;
   options.overwrite = true;
   options.features.type = type;
   options.keyframes.distance = 0.25;
   options.first_plane_distance = wall.plane.distance;
   auto session = TeachSession::start(options, syntheticCalibration(), Pose2D(0.0, 0.0, 0.0));
-  EXPECT_TRUE(session.isOk()) << session.status().toString();
+  if (!session) throw std::runtime_error(session.status().toString());
   for (int step = 0; step < steps; ++step) {
     const double s = 0.1 * step;
     const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
-    EXPECT_TRUE(session->offer(wall.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step)
-                    .isOk());
+    const auto offered = session->offer(wall.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step);
+    if (!offered) throw std::runtime_error(offered.status().toString());
   }
   const auto report = session->finish();
-  EXPECT_TRUE(report.isOk()) << report.status().toString();
+  if (!report) throw std::runtime_error(report.status().toString());
   return options.route_directory;
 }
 

@@ -20,6 +20,27 @@ T readParameter(const ros::NodeHandle& nh, const std::string& name, const T& def
   return value;
 }
 
+// PyYAML (rosparam load) reads exponent notation without a dot or sign, e.g. 1e-3 or 1.0e6, as a
+// string: accept such strings for floating-point parameters instead of failing on a valid number.
+template <>
+inline double readParameter<double>(const ros::NodeHandle& nh, const std::string& name,
+                                    const double& default_value) {
+  if (!nh.hasParam(name)) return default_value;
+  double value = 0.0;
+  if (nh.getParam(name, value)) return value;
+  std::string text;
+  if (nh.getParam(name, text)) {
+    std::size_t used = 0;
+    try {
+      value = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used > 0 && used == text.size()) return value;
+  }
+  throw std::runtime_error("parameter '" + nh.resolveName(name) + "' must be a number");
+}
+
 template <typename T>
 T readRequiredParameter(const ros::NodeHandle& nh, const std::string& name) {
   if (!nh.hasParam(name)) {

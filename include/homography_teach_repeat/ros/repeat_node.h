@@ -1,0 +1,77 @@
+// repeat_node: localizes the robot against a taught route (paper 000 / 002 repeat phase). A thin
+// wrapper over RepeatLocalizer (core).
+//
+// Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber),
+//             odom (nav_msgs/Odometry; only for the optional map -> odom tf)
+// Publishes:  ~pose (geometry_msgs/PoseWithCovarianceStamped): base_link in the route frame
+//             (`map_frame`), fast_hd and classic modes, successful estimates only. Covariance
+//             row-major (x, y, z, roll, pitch, yaw); z, roll and pitch are not estimated and get
+//             `unobserved_variance` (classic mode: every entry, it has no covariance model);
+//             ~heading_correction (homography_teach_repeat/HeadingCorrectionStamped) every frame;
+//             ~route_markers (visualization_msgs/MarkerArray, latched): keyframes, planes, the
+//             current reference; /diagnostics; tf map_frame -> odom_frame (publish_tf).
+// Parameters: see config/repeat_node.yaml
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "homography_teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/repeat_localizer.h"
+#include "homography_teach_repeat/status.h"
+
+namespace homography_teach_repeat {
+
+class RepeatNode {
+ public:
+  // Throws std::runtime_error naming the parameter or the route file on any problem.
+  RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+
+ private:
+  void onImage(const sensor_msgs::ImageConstPtr& image,
+               const sensor_msgs::CameraInfoConstPtr& camera_info);
+  void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
+  void publishMarkers(int current_keyframe);
+  void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  std::string map_frame_;
+  std::string odom_frame_;
+  bool publish_tf_ = false;
+  double unobserved_variance_ = 1e6;
+  int start_keyframe_ = 0;
+  RepeatMode mode_ = RepeatMode::kFastHd;
+
+  std::mutex mutex_;
+  std::optional<RepeatLocalizer> localizer_;
+  bool initialized_ = false;
+  OdometryBuffer odometry_;
+  Status last_status_{StatusCode::kInvalidInput, "no image received yet"};
+  unsigned frames_ = 0, failures_ = 0, degraded_ = 0;
+  int last_inliers_ = 0;
+  int last_keyframe_ = -1;
+  bool last_degraded_ = false;
+  ros::WallTime last_image_time_;
+
+  image_transport::ImageTransport image_transport_;
+  image_transport::CameraSubscriber camera_subscriber_;
+  ros::Subscriber odometry_subscriber_;
+  ros::Publisher pose_publisher_;
+  ros::Publisher heading_publisher_;
+  ros::Publisher marker_publisher_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  diagnostic_updater::Updater diagnostics_;
+  ros::Timer diagnostics_timer_;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,20 @@
+// repeat_node: see include/homography_teach_repeat/ros/repeat_node.h.
+#include <ros/ros.h>
+
+#include <iostream>
+#include <stdexcept>
+
+#include "homography_teach_repeat/ros/repeat_node.h"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "repeat_node");
+  try {
+    homography_teach_repeat::RepeatNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL("repeat_node: %s", e.what());
+    std::cerr << "repeat_node: " << e.what() << std::endl;  // also when rosconsole is not set up
+    return 1;
+  }
+  return 0;
+}

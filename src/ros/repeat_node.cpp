@@ -1,0 +1,259 @@
+#include "homography_teach_repeat/ros/repeat_node.h"
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/ros/parameters.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
+  RepeatOptions options;
+  try {
+    options.mode = repeatModeFromString(readParameter<std::string>(nh, "mode", "fast_hd"));
+    options.max_features = readParameter(nh, "max_features", options.max_features);
+    options.pose.pixel_sigma_px = readParameter(nh, "pixel_sigma", options.pose.pixel_sigma_px);
+    options.pose.refine = readParameter(nh, "refine", options.pose.refine);
+    options.min_inliers = readParameter(nh, "min_inliers", options.min_inliers);
+    options.neighbour_search = readParameter(nh, "neighbour_search", options.neighbour_search);
+    options.max_degraded_frames = readParameter(nh, "max_degraded_frames", options.max_degraded_frames);
+    options.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
+  }
+  return options;
+}
+
+geometry_msgs::Quaternion yawQuaternion(double yaw) {
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(yaw / 2.0);
+  q.w = std::cos(yaw / 2.0);
+  return q;
+}
+
+}  // namespace
+
+RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
+    : nh_(nh),
+      private_nh_(private_nh),
+      map_frame_(readParameter<std::string>(private_nh, "map_frame", "map")),
+      odom_frame_(readParameter<std::string>(private_nh, "odom_frame", "odom")),
+      publish_tf_(readParameter(private_nh, "publish_tf", false)),
+      unobserved_variance_(readParameter(private_nh, "unobserved_variance", 1e6)),
+      start_keyframe_(readParameter(private_nh, "start_keyframe", 0)),
+      image_transport_(nh),
+      diagnostics_(nh, private_nh) {
+  const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
+  const RepeatOptions options = readRepeatOptions(private_nh);
+  mode_ = options.mode;
+  if (!(unobserved_variance_ > 0.0)) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("unobserved_variance") +
+                             "' must be > 0");
+  }
+  const auto route = loadRoute(directory);
+  if (!route) throw std::runtime_error(route.status().message());
+  auto localizer = RepeatLocalizer::create(*route, options);
+  if (!localizer) throw std::runtime_error(localizer.status().message());
+  localizer_.emplace(std::move(*localizer));
+  if (start_keyframe_ >= localizer_->keyframeCount()) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("start_keyframe") + "' = " +
+                             std::to_string(start_keyframe_) + " but the route has " +
+                             std::to_string(localizer_->keyframeCount()) + " keyframes");
+  }
+  if (start_keyframe_ >= 0) {
+    localizer_->setTrackedKeyframe(start_keyframe_);
+    initialized_ = true;
+  }
+  pose_publisher_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 5);
+  heading_publisher_ = private_nh_.advertise<HeadingCorrectionStamped>("heading_correction", 5);
+  marker_publisher_ =
+      private_nh_.advertise<visualization_msgs::MarkerArray>("route_markers", 1, /*latch=*/true);
+  publishMarkers(localizer_->trackedKeyframe());
+  odometry_subscriber_ = nh_.subscribe("odom", 50, &RepeatNode::onOdometry, this);
+  camera_subscriber_ =
+      image_transport_.subscribeCamera("camera/image_raw", 1, &RepeatNode::onImage, this);
+  diagnostics_.setHardwareID("repeat_node");
+  diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
+  diagnostics_timer_ =
+      nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  ROS_INFO("repeat_node: route '%s' with %d keyframes, mode %s", directory.c_str(),
+           localizer_->keyframeCount(), toString(options.mode).c_str());
+}
+
+void RepeatNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
+  const auto pose = ros_conversions::toPose2D(odometry->pose.pose);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!pose) {
+    ROS_WARN_THROTTLE(5.0, "repeat_node: odometry rejected: %s", pose.status().message().c_str());
+    return;
+  }
+  odometry_.add(odometry->header.stamp.toSec(), *pose);
+}
+
+void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
+                         const sensor_msgs::CameraInfoConstPtr& camera_info) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++frames_;
+  last_image_time_ = ros::WallTime::now();
+  HeadingCorrectionStamped heading;
+  heading.header = image->header;
+  heading.mode = toString(mode_);
+  heading.reference_index = -1;
+  auto fail = [&](const Status& status) {
+    ++failures_;
+    last_status_ = status;
+    heading.ok = false;
+    heading.status = status.toString();
+    heading_publisher_.publish(heading);
+    ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", status.toString().c_str());
+  };
+  const auto camera = ros_conversions::toPinholeCamera(*camera_info);
+  if (!camera) return fail(camera.status());
+  if (camera->width() != localizer_->camera().width() ||
+      camera->height() != localizer_->camera().height()) {
+    return fail(Status(StatusCode::kInvalidInput,
+                       "camera_info is " + std::to_string(camera->width()) + "x" +
+                           std::to_string(camera->height()) + ", the route was taught at " +
+                           std::to_string(localizer_->camera().width()) + "x" +
+                           std::to_string(localizer_->camera().height())));
+  }
+  const auto cv_image = ros_conversions::toCvImage(image);
+  if (!cv_image) return fail(cv_image.status());
+  const auto estimate = initialized_ ? localizer_->localize(*cv_image)
+                                     : localizer_->initializeGlobally(*cv_image);
+  if (!estimate) return fail(estimate.status());
+  initialized_ = true;
+  last_status_ = Status::ok();
+  last_inliers_ = estimate->inliers;
+  last_degraded_ = estimate->degraded;
+  if (estimate->degraded) ++degraded_;
+  heading.mode = toString(estimate->mode);
+  heading.theta = estimate->heading_correction;
+  heading.mu = estimate->mu;
+  heading.inliers = static_cast<uint32_t>(estimate->inliers);
+  heading.matches = static_cast<uint32_t>(estimate->matches);
+  heading.reference_index = estimate->keyframe;
+  heading.degraded = estimate->degraded;
+  heading.ok = true;
+  heading.status = "ok";
+  heading_publisher_.publish(heading);
+  if (estimate->keyframe != last_keyframe_) {
+    last_keyframe_ = estimate->keyframe;
+    publishMarkers(estimate->keyframe);
+  }
+  if (!estimate->has_pose) return;
+
+  geometry_msgs::PoseWithCovarianceStamped pose;
+  pose.header.stamp = image->header.stamp;
+  pose.header.frame_id = map_frame_;
+  pose.pose.pose.position.x = estimate->base_pose.x;
+  pose.pose.pose.position.y = estimate->base_pose.y;
+  pose.pose.pose.orientation = yawQuaternion(estimate->base_pose.yaw);
+  auto& c = pose.pose.covariance;  // row-major 6x6 (x, y, z, roll, pitch, yaw)
+  c.fill(0.0);
+  const int index[3] = {0, 1, 5};
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) {
+      c[index[r] * 6 + index[k]] =
+          estimate->covariance_known ? estimate->covariance(r, k) : (r == k ? unobserved_variance_ : 0.0);
+    }
+  }
+  c[2 * 6 + 2] = c[3 * 6 + 3] = c[4 * 6 + 4] = unobserved_variance_;
+  pose_publisher_.publish(pose);
+
+  if (publish_tf_) {
+    const auto odom = odometry_.poseAt(image->header.stamp.toSec());
+    if (!odom) {
+      ROS_WARN_THROTTLE(5.0, "repeat_node: no map -> odom tf: %s", odom.status().toString().c_str());
+      return;
+    }
+    const Pose2D map_to_odom = estimate->base_pose.compose(odom->inverse());
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = image->header.stamp;
+    t.header.frame_id = map_frame_;
+    t.child_frame_id = odom_frame_;
+    t.transform.translation.x = map_to_odom.x;
+    t.transform.translation.y = map_to_odom.y;
+    t.transform.rotation = yawQuaternion(map_to_odom.yaw);
+    tf_broadcaster_.sendTransform(t);
+  }
+}
+
+void RepeatNode::publishMarkers(int current_keyframe) {
+  visualization_msgs::MarkerArray markers;
+  const Route& route = localizer_->route();
+  for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
+    const RouteKeyframe& keyframe = route.keyframes[k];
+    visualization_msgs::Marker arrow;
+    arrow.header.frame_id = map_frame_;
+    arrow.header.stamp = ros::Time::now();
+    arrow.ns = "keyframes";
+    arrow.id = static_cast<int>(k);
+    arrow.type = visualization_msgs::Marker::ARROW;
+    arrow.pose.position.x = keyframe.pose.x;
+    arrow.pose.position.y = keyframe.pose.y;
+    arrow.pose.orientation = yawQuaternion(keyframe.pose.yaw);
+    arrow.scale.x = 0.4;
+    arrow.scale.y = arrow.scale.z = 0.06;
+    const bool current = static_cast<int>(k) == current_keyframe;
+    arrow.color.r = current ? 1.0f : 0.2f;
+    arrow.color.g = current ? 0.3f : 0.6f;
+    arrow.color.b = current ? 0.1f : 1.0f;
+    arrow.color.a = 1.0f;
+    markers.markers.push_back(arrow);
+    if (!keyframe.plane) continue;
+    // The plane as a vertical wall segment 2 m wide, seen from the keyframe camera.
+    const ScenePlane& plane = *keyframe.plane;
+    const Pose2D camera = keyframe.pose.compose(route.info.camera_mount);
+    // Foot of the perpendicular from the camera (camera axes: x right, z forward) in base axes.
+    const Eigen::Vector2d foot_camera(plane.normal.x() * plane.distance, plane.normal.z() * plane.distance);
+    const Eigen::Vector2d foot = camera.transformPoint(Eigen::Vector2d(foot_camera.y(), -foot_camera.x()));
+    const Eigen::Vector2d along = camera.transformPoint(Eigen::Vector2d(-plane.normal.x(), -plane.normal.z())) -
+                                  camera.transformPoint(Eigen::Vector2d::Zero());
+    visualization_msgs::Marker wall;
+    wall.header = arrow.header;
+    wall.ns = "planes";
+    wall.id = static_cast<int>(k);
+    wall.type = visualization_msgs::Marker::LINE_LIST;
+    wall.pose.orientation.w = 1.0;
+    wall.scale.x = 0.03;
+    wall.color.r = wall.color.g = 0.8f;
+    wall.color.b = 0.2f;
+    wall.color.a = current ? 1.0f : 0.3f;
+    geometry_msgs::Point a, b;
+    a.x = foot.x() - along.x();
+    a.y = foot.y() - along.y();
+    b.x = foot.x() + along.x();
+    b.y = foot.y() + along.y();
+    wall.points = {a, b};
+    markers.markers.push_back(wall);
+  }
+  marker_publisher_.publish(markers);
+}
+
+void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!last_status_.isOk()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_status_.toString());
+  } else if (last_degraded_) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                 "degraded: localized against the temporary reference (route keyframes fail)");
+  } else {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "localized");
+  }
+  stat.add("frames", frames_);
+  stat.add("failures", failures_);
+  stat.add("degraded frames", degraded_);
+  stat.add("last inliers", last_inliers_);
+  stat.add("reference keyframe", last_keyframe_);
+  stat.add("tracked keyframe", localizer_->trackedKeyframe());
+}
+
+}  // namespace homography_teach_repeat

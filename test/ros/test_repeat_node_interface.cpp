@@ -1,0 +1,119 @@
+// Feeds repeat_node images of the synthetic wall from poses beside the taught path.
+#include <gtest/gtest.h>
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cmath>
+#include <vector>
+
+#include "../core/synthetic_route.h"
+#include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "node_test_helpers.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+sensor_msgs::CameraInfo syntheticCameraInfo() {
+  const CameraCalibration c = test_support::syntheticCalibration();
+  sensor_msgs::CameraInfo info = test_support::makeCameraInfo(c.width, c.height, c.fx);
+  info.K[2] = c.cx;
+  info.K[5] = c.cy;
+  info.P[2] = c.cx;
+  info.P[6] = c.cy;
+  return info;
+}
+
+}  // namespace
+
+TEST(RepeatNode, PosesHeadingAndMarkers) {
+  ros::NodeHandle nh;
+  image_transport::ImageTransport it(nh);
+  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
+  std::vector<HeadingCorrectionStamped> headings;
+  visualization_msgs::MarkerArray markers;
+  ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+      "repeat_node/pose", 20, [&](const auto& m) { poses.push_back(*m); });
+  ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(
+      "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
+  ros::Subscriber marker_sub = nh.subscribe<visualization_msgs::MarkerArray>(
+      "repeat_node/route_markers", 1, [&](const auto& m) { markers = *m; });
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] { return camera.getNumSubscribers() > 0 && !markers.markers.empty(); }, 30.0));
+  int arrows = 0, planes = 0;
+  for (const auto& m : markers.markers) {
+    arrows += m.ns == "keyframes" ? 1 : 0;
+    planes += m.ns == "planes" ? 1 : 0;
+  }
+  EXPECT_EQ(arrows, 6);
+  EXPECT_EQ(planes, 6);
+
+  const test_support::SyntheticWall wall;
+  std::vector<Pose2D> truths;
+  for (int step = 0; step < 6; ++step) {
+    const double s = 0.2 * step + 0.05;
+    const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.03);
+    truths.push_back(cameraAxesToRep103(camera_pose));
+    auto image = test_support::makeImage(wall.imageAt(camera_pose), "mono8");
+    image->header.stamp = ros::Time(100.0 + step);
+    image->header.frame_id = "camera_optical_frame";
+    sensor_msgs::CameraInfo info = syntheticCameraInfo();
+    info.header = image->header;
+    camera.publish(*image, info);
+    ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() == truths.size(); }, 30.0))
+        << "no heading_correction for image " << step;
+  }
+  ASSERT_TRUE(test_support::spinUntil([&] { return poses.size() == truths.size(); }, 10.0));
+  for (std::size_t k = 0; k < truths.size(); ++k) {
+    const auto& p = poses[k].pose;
+    EXPECT_EQ(poses[k].header.frame_id, "map");
+    EXPECT_NEAR(p.pose.position.x, truths[k].x, 0.03) << k;
+    EXPECT_NEAR(p.pose.position.y, truths[k].y, 0.03) << k;
+    const double yaw = 2.0 * std::atan2(p.pose.orientation.z, p.pose.orientation.w);
+    EXPECT_NEAR(wrapToPi(yaw - truths[k].yaw), 0.0, 0.005) << k;
+    // Row-major (x, y, z, roll, pitch, yaw): estimated x, y, yaw; z, roll, pitch unobserved.
+    EXPECT_GT(p.covariance[0], 0.0);
+    EXPECT_GT(p.covariance[7], 0.0);
+    EXPECT_GT(p.covariance[35], 0.0);
+    EXPECT_EQ(p.covariance[14], 1e6);
+    EXPECT_EQ(p.covariance[21], 1e6);
+    EXPECT_EQ(p.covariance[1], p.covariance[6]);
+    EXPECT_TRUE(headings[k].ok) << headings[k].status;
+    EXPECT_EQ(headings[k].mode, "fast_hd");
+    EXPECT_GE(headings[k].reference_index, 0);
+  }
+  EXPECT_GE(headings.back().reference_index, 3);
+
+  // Bad input: a camera of another size, and an image of an unrelated scene: explicit failures,
+  // no pose.
+  const std::size_t poses_before = poses.size();
+  auto small = test_support::makeImage(cv::Mat(240, 320, CV_8UC1, cv::Scalar(90)), "mono8");
+  small->header.stamp = ros::Time(200.0);
+  sensor_msgs::CameraInfo small_info = test_support::makeCameraInfo(320, 240, 250.0);
+  small_info.header = small->header;
+  camera.publish(*small, small_info);
+  ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() == truths.size() + 1; }, 20.0));
+  EXPECT_FALSE(headings.back().ok);
+  EXPECT_NE(headings.back().status.find("taught at 640x480"), std::string::npos) << headings.back().status;
+  auto other = test_support::makeImage(test_support::makeTexture(640, 480, 77), "mono8");
+  other->header.stamp = ros::Time(201.0);
+  sensor_msgs::CameraInfo info = syntheticCameraInfo();
+  info.header = other->header;
+  camera.publish(*other, info);
+  ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() == truths.size() + 2; }, 30.0));
+  EXPECT_FALSE(headings.back().ok);
+  EXPECT_EQ(headings.back().reference_index, -1);
+  ros::WallDuration(0.5).sleep();
+  ros::spinOnce();
+  EXPECT_EQ(poses.size(), poses_before);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_repeat_node_interface");
+  return RUN_ALL_TESTS();
+}
