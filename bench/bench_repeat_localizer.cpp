@@ -1,0 +1,91 @@
+// bench_repeat_localizer: per-frame latency of the repeat phase (image in -> pose out, the core
+// part of repeat_node: feature extraction, matching, robust homography, Fast-HD, covariance,
+// refinement) at 640x480 for each feature type, on the synthetic taught route of the tests.
+//   rosrun homography_teach_repeat bench_repeat_localizer [--benchmark_format=json]
+// Counters: pos_err_mm / yaw_err_mdeg of the benchmarked frame against its ground truth.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include "../test/core/synthetic_route.h"
+#include "homography_teach_repeat/repeat_localizer.h"
+
+namespace htr = homography_teach_repeat;
+
+namespace {
+
+struct Fixture {
+  htr::test_support::SyntheticWall wall;
+  std::map<htr::FeatureType, std::string> routes;
+  ~Fixture() {
+    for (const auto& [type, dir] : routes) std::filesystem::remove_all(dir);
+  }
+  const std::string& route(htr::FeatureType type) {
+    auto it = routes.find(type);
+    if (it == routes.end()) {
+      it = routes.emplace(type, htr::test_support::teachSyntheticRoute(wall, type)).first;
+    }
+    return it->second;
+  }
+};
+
+Fixture& fixture() {
+  static Fixture f;
+  return f;
+}
+
+void BM_RepeatLocalize(benchmark::State& state, htr::FeatureType type, htr::RepeatMode mode) {
+  const auto route = htr::loadRoute(fixture().route(type));
+  if (!route) {
+    state.SkipWithError(route.status().toString().c_str());
+    return;
+  }
+  htr::RepeatOptions options;
+  options.mode = mode;
+  auto localizer = htr::RepeatLocalizer::create(*route, options);
+  if (!localizer) {
+    state.SkipWithError(localizer.status().toString().c_str());
+    return;
+  }
+  // A frame 6 cm beside the taught path, turned 2°, between keyframes 2 and 3.
+  const htr::PlanarPose camera_pose(0.08 * 0.65 + 0.06, 0.65, 0.04 * 0.65 + 0.035);
+  const cv::Mat image = fixture().wall.imageAt(camera_pose);
+  const htr::Pose2D truth = htr::cameraAxesToRep103(camera_pose);
+  htr::RepeatEstimate last;
+  for (auto _ : state) {
+    localizer->setTrackedKeyframe(2);
+    const auto estimate = localizer->localize(image);
+    if (!estimate) {
+      state.SkipWithError(estimate.status().toString().c_str());
+      return;
+    }
+    last = *estimate;
+  }
+  if (last.has_pose) {
+    state.counters["pos_err_mm"] =
+        1000.0 * std::hypot(last.base_pose.x - truth.x, last.base_pose.y - truth.y);
+    state.counters["yaw_err_mdeg"] =
+        1000.0 * std::abs(htr::wrapToPi(last.base_pose.yaw - truth.yaw)) * 180.0 / M_PI;
+  } else {
+    state.counters["heading_err_mdeg"] =
+        1000.0 * std::abs(htr::wrapToPi(last.heading_correction - (truth.yaw - route->keyframes[2].pose.yaw))) *
+        180.0 / M_PI;
+  }
+  state.counters["inliers"] = last.inliers;
+}
+
+BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_ORB, htr::FeatureType::kOrb, htr::RepeatMode::kFastHd)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_AKAZE, htr::FeatureType::kAkaze, htr::RepeatMode::kFastHd)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_SIFT, htr::FeatureType::kSift, htr::RepeatMode::kFastHd)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(BM_RepeatLocalize, Mu_lines, htr::FeatureType::kOrb, htr::RepeatMode::kMu)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+
+}  // namespace
+
+BENCHMARK_MAIN();
