@@ -69,6 +69,9 @@ struct RepeatEstimate {
   PlanarPose camera_relative;  // current camera in the reference camera frame (MATH.md §1.1)
   double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
   double mu = 0.0;                  // mu mode: h12/h22 [px]
+  // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.
+  // distorted) for visualisation; mu mode: the matched line x at the principal row.
+  PointMatches inlier_matches;
 };
 
 class RepeatLocalizer {

@@ -113,6 +113,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
   const auto dmatches = matchFeatures(reference.features, features, options_.matching);
   if (!dmatches) return dmatches.status();
   PointMatches matches = toPointMatches(reference.features, features, *dmatches);
+  const PointMatches measured = matches;
   if (camera_.hasDistortion()) {
     for (auto& m : matches) {
       const cv::Point2d a = camera_.undistortPixel({m.reference.x(), m.reference.y()});
@@ -127,6 +128,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
     const auto pose = estimatePlanarPose(matches, camera_, *reference.plane, options_.pose);
     if (!pose) return pose.status();
     estimate.inliers = static_cast<int>(pose->inliers.size());
+    for (const int i : pose->inliers) estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(i)]);
     camera_relative = pose->pose;
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(camera_relative);
     estimate.covariance =
@@ -137,7 +139,10 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
     if (!robust) return robust.status();
     estimate.inliers = static_cast<int>(robust->inliers.size());
     std::vector<Eigen::Vector2d> pixels;
-    for (const int i : robust->inliers) pixels.push_back(matches[i].reference);
+    for (const int i : robust->inliers) {
+      pixels.push_back(matches[i].reference);
+      estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(i)]);
+    }
     const auto all = decomposeHomographyClassic(robust->H, camera_);
     if (!all) return all.status();
     const auto visible = filterByPositiveDepth(*all, camera_, pixels);

@@ -1,8 +1,11 @@
 #include "homography_teach_repeat/ros/repeat_node.h"
 
+#include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <visualization_msgs/MarkerArray.h>
+
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <stdexcept>
@@ -76,6 +79,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   marker_publisher_ =
       private_nh_.advertise<visualization_msgs::MarkerArray>("route_markers", 1, /*latch=*/true);
   publishMarkers(localizer_->trackedKeyframe());
+  image_transport::ImageTransport private_transport(private_nh_);
+  debug_publisher_ = private_transport.advertise("debug_image", 1);
   odometry_subscriber_ = nh_.subscribe("odom", 50, &RepeatNode::onOdometry, this);
   camera_subscriber_ =
       image_transport_.subscribeCamera("camera/image_raw", 1, &RepeatNode::onImage, this);
@@ -112,6 +117,10 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     heading.ok = false;
     heading.status = status.toString();
     heading_publisher_.publish(heading);
+    if (debug_publisher_.getNumSubscribers() > 0) {
+      const auto current = ros_conversions::toCvImage(image);
+      if (current) publishDebugImage(image, *current, nullptr, status.toString());
+    }
     ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", status.toString().c_str());
   };
   const auto camera = ros_conversions::toPinholeCamera(*camera_info);
@@ -148,6 +157,7 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     last_keyframe_ = estimate->keyframe;
     publishMarkers(estimate->keyframe);
   }
+  if (debug_publisher_.getNumSubscribers() > 0) publishDebugImage(image, *cv_image, &*estimate, "");
   if (!estimate->has_pose) return;
 
   geometry_msgs::PoseWithCovarianceStamped pose;
@@ -184,6 +194,49 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     t.transform.rotation = yawQuaternion(map_to_odom.yaw);
     tf_broadcaster_.sendTransform(t);
   }
+}
+
+void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,
+                                   const RepeatEstimate* estimate, const std::string& failure) {
+  cv::Mat right;
+  if (current.channels() == 1) {
+    cv::cvtColor(current, right, cv::COLOR_GRAY2BGR);
+  } else {
+    right = current.clone();
+  }
+  cv::Mat canvas;
+  if (estimate != nullptr && estimate->keyframe >= 0) {
+    if (estimate->keyframe != debug_keyframe_) {
+      const auto reference = loadKeyframeImage(localizer_->route(), static_cast<std::size_t>(estimate->keyframe));
+      debug_reference_ = cv::Mat();
+      if (reference) {
+        if (reference->channels() == 1) {
+          cv::cvtColor(*reference, debug_reference_, cv::COLOR_GRAY2BGR);
+        } else {
+          debug_reference_ = reference->clone();
+        }
+      }
+      debug_keyframe_ = estimate->keyframe;
+    }
+  }
+  if (!debug_reference_.empty() && estimate != nullptr && debug_reference_.size() == right.size()) {
+    cv::hconcat(debug_reference_, right, canvas);
+    const double offset = debug_reference_.cols;
+    for (const auto& m : estimate->inlier_matches) {
+      cv::line(canvas, cv::Point2d(m.reference.x(), m.reference.y()),
+               cv::Point2d(m.current.x() + offset, m.current.y()), cv::Scalar(0, 200, 0), 1, cv::LINE_AA);
+    }
+  } else {
+    canvas = right;
+  }
+  const std::string text =
+      estimate != nullptr
+          ? "keyframe " + std::to_string(estimate->keyframe) + "  " + toString(estimate->mode) +
+                "  inliers " + std::to_string(estimate->inliers) + (estimate->degraded ? "  DEGRADED" : "")
+          : "no estimate: " + failure;
+  cv::putText(canvas, text, cv::Point(10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.6,
+              estimate != nullptr ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 0, 255), 2, cv::LINE_AA);
+  debug_publisher_.publish(cv_bridge::CvImage(image->header, "bgr8", canvas).toImageMsg());
 }
 
 void RepeatNode::publishMarkers(int current_keyframe) {

@@ -40,6 +40,9 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
       "repeat_node/pose", 20, [&](const auto& m) { poses.push_back(*m); });
   ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(
       "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
+  sensor_msgs::Image debug;
+  ros::Subscriber debug_sub = nh.subscribe<sensor_msgs::Image>(
+      "repeat_node/debug_image", 2, [&](const auto& m) { debug = *m; });
   ros::Subscriber marker_sub = nh.subscribe<visualization_msgs::MarkerArray>(
       "repeat_node/route_markers", 1, [&](const auto& m) { markers = *m; });
   ASSERT_TRUE(test_support::spinUntil(
@@ -87,6 +90,11 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
     EXPECT_GE(headings[k].reference_index, 0);
   }
   EXPECT_GE(headings.back().reference_index, 3);
+  // The debug image: reference keyframe beside the current image.
+  ASSERT_TRUE(test_support::spinUntil([&] { return debug.width > 0; }, 5.0));
+  EXPECT_EQ(debug.encoding, "bgr8");
+  EXPECT_EQ(debug.width, 1280u);
+  EXPECT_EQ(debug.height, 480u);
 
   // Bad input: a camera of another size, and an image of an unrelated scene: explicit failures,
   // no pose.

@@ -9,7 +9,9 @@
 //             `unobserved_variance` (classic mode: every entry, it has no covariance model);
 //             ~heading_correction (homography_teach_repeat/HeadingCorrectionStamped) every frame;
 //             ~route_markers (visualization_msgs/MarkerArray, latched): keyframes, planes, the
-//             current reference; /diagnostics; tf map_frame -> odom_frame (publish_tf).
+//             current reference; ~debug_image (bgr8, only while subscribed: the reference
+//             keyframe beside the current image with the inlier matches, or the failure reason);
+//             /diagnostics; tf map_frame -> odom_frame (publish_tf).
 // Parameters: see config/repeat_node.yaml
 #pragma once
 
@@ -20,6 +22,8 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/transform_broadcaster.h>
+
+#include <opencv2/core.hpp>
 
 #include <mutex>
 #include <optional>
@@ -41,6 +45,8 @@ class RepeatNode {
                const sensor_msgs::CameraInfoConstPtr& camera_info);
   void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
   void publishMarkers(int current_keyframe);
+  void publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,
+                         const RepeatEstimate* estimate, const std::string& failure);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   ros::NodeHandle nh_;
@@ -65,6 +71,9 @@ class RepeatNode {
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
+  image_transport::Publisher debug_publisher_;
+  int debug_keyframe_ = -1;
+  cv::Mat debug_reference_;  // cached reference keyframe image (BGR)
   ros::Subscriber odometry_subscriber_;
   ros::Publisher pose_publisher_;
   ros::Publisher heading_publisher_;
