@@ -1,0 +1,66 @@
+// Bad input to repeat_node: explicit failures on ~heading_correction, no crash, no pose.
+#include <gtest/gtest.h>
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+
+#include "../core/synthetic_route.h"
+#include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "node_test_helpers.h"
+
+using namespace homography_teach_repeat;
+
+TEST(RepeatNode, BadInputIsReportedAndSurvived) {
+  ros::NodeHandle nh;
+  image_transport::ImageTransport it(nh);
+  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  std::vector<HeadingCorrectionStamped> headings;
+  int poses = 0;
+  ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(
+      "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
+  ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+      "repeat_node/pose", 20, [&](const auto&) { ++poses; });
+  ASSERT_TRUE(test_support::spinUntil([&] { return camera.getNumSubscribers() > 0; }, 30.0));
+
+  const CameraCalibration c = test_support::syntheticCalibration();
+  auto info = [&](const std_msgs::Header& header, double focal) {
+    sensor_msgs::CameraInfo i = test_support::makeCameraInfo(c.width, c.height, focal);
+    i.K[2] = c.cx;
+    i.K[5] = c.cy;
+    i.header = header;
+    return i;
+  };
+  auto expectFailure = [&](const sensor_msgs::ImagePtr& image, double focal, const std::string& reason) {
+    const std::size_t before = headings.size();
+    camera.publish(*image, info(image->header, focal));
+    ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() > before; }, 20.0)) << reason;
+    EXPECT_FALSE(headings.back().ok) << reason;
+    EXPECT_NE(headings.back().status.find(reason), std::string::npos) << headings.back().status;
+  };
+  // A float image: an encoding the node does not take.
+  auto float_image = test_support::makeImage(cv::Mat(480, 640, CV_32FC1, cv::Scalar(0.5)), "32FC1");
+  expectFailure(float_image, c.fx, "32FC1");
+  // An empty image.
+  auto empty = boost::make_shared<sensor_msgs::Image>();
+  empty->encoding = "mono8";
+  empty->width = 640;
+  empty->height = 480;
+  expectFailure(empty, c.fx, "INVALID_INPUT");
+  // Zero focal length.
+  const test_support::SyntheticWall wall;
+  auto good = test_support::makeImage(wall.imageAt(PlanarPose(0.02, 0.1, 0.0)), "mono8");
+  expectFailure(good, 0.0, "INVALID_INPUT");
+  EXPECT_EQ(poses, 0);
+  // Still alive: a good image is localized.
+  const std::size_t before = headings.size();
+  camera.publish(*good, info(good->header, c.fx));
+  ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() > before && poses > 0; }, 20.0));
+  EXPECT_TRUE(headings.back().ok) << headings.back().status;
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_repeat_node_bad_input");
+  return RUN_ALL_TESTS();
+}
