@@ -229,6 +229,7 @@ void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("images", images_);
   stat.add("dropped images", dropped_);
   stat.add("route", options_.route_directory);
+  stat.add("last problem", last_error_.isOk() ? std::string("none") : last_error_.toString());
 }
 
 }  // namespace homography_teach_repeat
