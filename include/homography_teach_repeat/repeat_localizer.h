@@ -88,6 +88,10 @@ class RepeatLocalizer {
   Expected<RepeatEstimate> initializeGlobally(const cv::Mat& image);
 
   void setTrackedKeyframe(int keyframe);
+  // Tracking from a position known otherwise (mu mode: the heading-aided odometry, which vision
+  // does not give): moves on while `robot` is closer to the next keyframe than to the tracked one.
+  // Non-finite positions are ignored.
+  void advanceTrackingTo(const Pose2D& robot);
   int trackedKeyframe() const { return tracked_; }
   int keyframeCount() const { return static_cast<int>(keyframes_.size()); }
   const Route& route() const { return route_; }

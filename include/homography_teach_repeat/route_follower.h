@@ -62,6 +62,11 @@ class RouteFollower {
 
   const PotentialFieldController& controller() const { return controller_; }
   void setControllerParameters(const PotentialFieldParameters& parameters);
+  // Run-time tuning (dynamic_reconfigure): the controller parameters, pose_timeout and
+  // require_goal_heading of `options`; the goal sequence (start/end index, laps) stays. Throws
+  // std::invalid_argument naming the bad field and then changes nothing.
+  void retune(const RouteFollowerOptions& options);
+  const RouteFollowerOptions& options() const { return options_; }
 
  private:
   FollowOutput stop(FollowState state, const std::string& reason);

@@ -170,12 +170,15 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
 
 void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
   tracked_ = estimate.keyframe;
-  if (!estimate.has_pose) return;
+  if (estimate.has_pose) advanceTrackingTo(estimate.base_pose);
+}
+
+void RepeatLocalizer::advanceTrackingTo(const Pose2D& robot) {
+  if (!std::isfinite(robot.x) || !std::isfinite(robot.y)) return;
   // Move on while the robot is closer to the next keyframe than to the tracked one.
   while (tracked_ + 1 < keyframeCount()) {
     const Pose2D& here = keyframes_[tracked_].base_pose;
     const Pose2D& next = keyframes_[tracked_ + 1].base_pose;
-    const Pose2D& robot = estimate.base_pose;
     if (std::hypot(next.x - robot.x, next.y - robot.y) >= std::hypot(here.x - robot.x, here.y - robot.y)) {
       break;
     }

@@ -44,6 +44,13 @@ void RouteFollower::setControllerParameters(const PotentialFieldParameters& para
   options_.controller = parameters;
 }
 
+void RouteFollower::retune(const RouteFollowerOptions& options) {
+  options.validate();
+  setControllerParameters(options.controller);
+  options_.pose_timeout = options.pose_timeout;
+  options_.require_goal_heading = options.require_goal_heading;
+}
+
 Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_offset) {
   if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) ||
       !std::isfinite(stamp) || !std::isfinite(heading_offset)) {

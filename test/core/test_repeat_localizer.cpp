@@ -85,6 +85,25 @@ TEST_F(RepeatLocalizerTest, MuModeGivesTheHeading) {
   }
 }
 
+// μ mode gives no position, so tracking moves on from a position known otherwise (the
+// heading-aided odometry of repeat_node): to the keyframe nearest that position, never back.
+TEST_F(RepeatLocalizerTest, MuModeTrackingFollowsAnExternalPosition) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Route& r = localizer->route();
+  localizer->setTrackedKeyframe(0);
+  localizer->advanceTrackingTo(r.keyframes[3].pose);
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(r.keyframes[1].pose);  // never backwards
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(Pose2D(NAN, 0.0, 0.0));
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(r.keyframes.back().pose);
+  EXPECT_EQ(localizer->trackedKeyframe(), localizer->keyframeCount() - 1);
+}
+
 TEST_F(RepeatLocalizerTest, ClassicModeBaseline) {
   RepeatOptions options;
   options.mode = RepeatMode::kClassic;

@@ -95,3 +95,25 @@ TEST(RouteFollower, BadOptions) {
   options.pose_timeout = -1.0;
   EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
 }
+
+// dynamic_reconfigure retunes the controller and the timeout; a bad value changes nothing.
+TEST(RouteFollower, RetuneChangesTheTunablesOnly) {
+  RouteFollowerOptions options;
+  options.laps = 2;
+  RouteFollower follower(squareRoute(), options);
+  ASSERT_TRUE(follower.setFix(Pose2D(0.1, 0.0, 0.0), 0.0).isOk());
+  RouteFollowerOptions tuned = options;
+  tuned.pose_timeout = 2.0;
+  tuned.controller.max_linear_velocity = 0.2;
+  tuned.laps = 5;  // ignored: the goal sequence stays
+  follower.retune(tuned);
+  EXPECT_EQ(follower.options().pose_timeout, 2.0);
+  EXPECT_EQ(follower.controller().parameters().max_linear_velocity, 0.2);
+  EXPECT_EQ(follower.options().laps, 2);
+  // The fix at t = 0 is still fresh at 1.5 s with the new timeout.
+  EXPECT_EQ(follower.update(1.5, 0.05).state, FollowState::kFollowing);
+  RouteFollowerOptions bad = tuned;
+  bad.pose_timeout = 0.0;
+  EXPECT_THROW(follower.retune(bad), std::invalid_argument);
+  EXPECT_EQ(follower.options().pose_timeout, 2.0);
+}
