@@ -13,12 +13,16 @@ HTR_DEBIAN_PACKAGES=(
   build-essential cmake pkg-config git
   catkin catkin-lint rosbash
   libroscpp-dev librosbag-dev python3-rosbag librostest-dev python3-rostest
+  libactionlib-dev libactionlib-msgs-dev ros-actionlib-msgs python3-actionlib
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev
   libcv-bridge-dev libimage-transport-dev libdiagnostic-updater-dev
   libnav-msgs-dev libvisualization-msgs-dev libtf2-ros-dev libtf2-eigen-dev libstd-srvs-dev
   ros-std-msgs ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-diagnostic-msgs
   libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev googletest libbenchmark-dev
   opencv-doc
+  rviz xvfb xauth imagemagick
 )
 
 htr_log() { printf '\n==> %s\n' "$*"; }

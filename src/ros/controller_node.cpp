@@ -48,42 +48,179 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
 
 ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
     : nh_(nh), private_nh_(private_nh), diagnostics_(nh, private_nh) {
-  const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
+  const bool autostart = readParameter(private_nh, "autostart", true);
+  default_directory_ = autostart ? readRequiredParameter<std::string>(private_nh, "route_directory")
+                                 : readParameter<std::string>(private_nh, "route_directory", "");
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   scan_timeout_ = readParameter(private_nh, "scan_timeout", 0.5);
+  stop_abort_timeout_ = readParameter(private_nh, "stop_abort_timeout", 10.0);
   if (!(rate > 0.0) || !std::isfinite(rate)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0 Hz");
   }
-  control_period_ = 1.0 / rate;
-  const RouteFollowerOptions options = readFollowerOptions(private_nh);
-  const auto route = loadRoute(directory);
-  if (!route) throw std::runtime_error(route.status().message());
-  std::vector<Pose2D> goals;
-  for (const auto& k : route->keyframes) goals.push_back(k.pose);
-  try {
-    follower_.emplace(goals, options);
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(std::string("route '") + directory + "': " + e.what());
+  if (!(stop_abort_timeout_ > 0.0) || !std::isfinite(stop_abort_timeout_)) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("stop_abort_timeout") + "' must be > 0 s");
   }
+  control_period_ = 1.0 / rate;
+  options_ = readFollowerOptions(private_nh);
+  if (autostart) startRoute(default_directory_, options_);
   command_publisher_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 1);
   state_publisher_ = private_nh_.advertise<std_msgs::String>("state", 1, /*latch=*/true);
+  publishState(follower_ ? "waiting: no localization yet" : "idle: no route (send a repeat_route goal)");
   pose_subscriber_ = nh_.subscribe("pose", 5, &ControllerNode::onPose, this);
   heading_subscriber_ = nh_.subscribe("heading_correction", 5, &ControllerNode::onHeading, this);
   scan_subscriber_ = nh_.subscribe("scan", 1, &ControllerNode::onScan, this);
   diagnostics_.setHardwareID("controller_node");
   diagnostics_.add("controller", this, &ControllerNode::produceDiagnostics);
+
+  action_server_ = std::make_unique<actionlib::SimpleActionServer<RepeatRouteAction>>(nh_, "repeat_route", false);
+  action_server_->registerGoalCallback([this] { onGoal(); });
+  action_server_->registerPreemptCallback([this] { onPreempt(); });
+  action_server_->start();
+
+  // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<ControllerConfig>>(private_nh_);
+  const PotentialFieldParameters& p = options_.controller;
+  ControllerConfig config;
+  config.viscous_friction = p.viscous_friction;
+  config.inertia_ratio = p.inertia_ratio;
+  config.lever = p.lever;
+  config.attractive_gain = p.attractive_gain;
+  config.attraction_saturation = p.attraction_saturation;
+  config.repulsive_gain = p.repulsive_gain;
+  config.repulsive_range = p.repulsive_range;
+  config.max_linear_velocity = p.max_linear_velocity;
+  config.max_angular_velocity = p.max_angular_velocity;
+  config.max_linear_acceleration = p.max_linear_acceleration;
+  config.max_angular_acceleration = p.max_angular_acceleration;
+  config.allow_reverse = p.allow_reverse;
+  config.goal_tolerance = p.goal_tolerance;
+  config.goal_heading_tolerance = p.goal_heading_tolerance;
+  config.require_goal_heading = options_.require_goal_heading;
+  config.pose_timeout = options_.pose_timeout;
+  reconfigure_server_->updateConfig(config);
+  reconfigure_server_->setCallback(
+      [this](ControllerConfig& c, uint32_t level) { onReconfigure(c, level); });
+
   timer_ = nh_.createTimer(ros::Duration(control_period_), &ControllerNode::onTimer, this);
-  ROS_INFO("controller_node: following '%s' (%zu keyframes, %d lap(s)) at %.0f Hz",
-           directory.c_str(), goals.size(), options.laps, rate);
+  ROS_INFO("controller_node: %s at %.0f Hz; action server 'repeat_route' ready",
+           follower_ ? ("following '" + default_directory_ + "' (" + std::to_string(options_.laps) +
+                        " lap(s))").c_str()
+                     : "idle",
+           rate);
 }
 
 ControllerNode::~ControllerNode() {
+  timer_.stop();
   command_publisher_.publish(geometry_msgs::Twist());
+  if (action_server_ && action_server_->isActive()) {
+    RepeatRouteResult result;
+    result.reached = false;
+    result.reason = "controller_node shut down";
+    action_server_->setAborted(result, result.reason);
+  }
+}
+
+void ControllerNode::startRoute(const std::string& directory, const RouteFollowerOptions& options) {
+  if (directory.empty()) throw std::runtime_error("no route directory (goal and ~route_directory are empty)");
+  const auto route = loadRoute(directory);
+  if (!route) throw std::runtime_error(route.status().message());
+  std::vector<Pose2D> goals;
+  for (const auto& k : route->keyframes) goals.push_back(k.pose);
+  try {
+    RouteFollower follower(goals, options);
+    std::lock_guard<std::mutex> lock(mutex_);
+    follower_.emplace(std::move(follower));
+    last_output_ = FollowOutput();
+    stopped_since_ = -1.0;
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(std::string("route '") + directory + "': " + e.what());
+  }
+}
+
+void ControllerNode::onGoal() {
+  const auto goal = action_server_->acceptNewGoal();
+  RouteFollowerOptions options = options_;
+  options.start_index = goal->start_index;
+  options.end_index = goal->end_index;
+  options.laps = goal->laps == 0 ? 1 : goal->laps;
+  const std::string directory = goal->route_directory.empty() ? default_directory_ : goal->route_directory;
+  try {
+    options.validate();
+    startRoute(directory, options);
+  } catch (const std::exception& e) {
+    RepeatRouteResult result;
+    result.reached = false;
+    result.reason = std::string("goal refused: ") + e.what();
+    ROS_ERROR("controller_node: %s", result.reason.c_str());
+    action_server_->setAborted(result, result.reason);
+    return;
+  }
+  ROS_INFO("controller_node: repeat_route goal: '%s' keyframes %d..%d, %d lap(s)", directory.c_str(),
+           options.start_index, options.end_index, options.laps);
+}
+
+void ControllerNode::onPreempt() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    follower_.reset();
+  }
+  command_publisher_.publish(geometry_msgs::Twist());
+  publishState("idle: goal preempted");
+  RepeatRouteResult result;
+  result.reached = false;
+  result.reason = "preempted";
+  result.progress = 100.0 * last_output_.progress;
+  action_server_->setPreempted(result, result.reason);
+}
+
+void ControllerNode::onReconfigure(ControllerConfig& config, uint32_t /*level*/) {
+  RouteFollowerOptions options = options_;
+  PotentialFieldParameters& p = options.controller;
+  p.viscous_friction = config.viscous_friction;
+  p.inertia_ratio = config.inertia_ratio;
+  p.lever = config.lever;
+  p.attractive_gain = config.attractive_gain;
+  p.attraction_saturation = config.attraction_saturation;
+  p.repulsive_gain = config.repulsive_gain;
+  p.repulsive_range = config.repulsive_range;
+  p.max_linear_velocity = config.max_linear_velocity;
+  p.max_angular_velocity = config.max_angular_velocity;
+  p.max_linear_acceleration = config.max_linear_acceleration;
+  p.max_angular_acceleration = config.max_angular_acceleration;
+  p.allow_reverse = config.allow_reverse;
+  p.goal_tolerance = config.goal_tolerance;
+  p.goal_heading_tolerance = config.goal_heading_tolerance;
+  options.require_goal_heading = config.require_goal_heading;
+  options.pose_timeout = config.pose_timeout;
+  try {
+    options.validate();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (follower_) follower_->retune(options);
+    options_.controller = options.controller;
+    options_.require_goal_heading = options.require_goal_heading;
+    options_.pose_timeout = options.pose_timeout;
+  } catch (const std::invalid_argument& e) {
+    ROS_ERROR("controller_node: reconfiguration refused: %s", e.what());
+    config.pose_timeout = options_.pose_timeout;  // dynamic_reconfigure reports the values kept
+    config.goal_tolerance = options_.controller.goal_tolerance;
+    return;
+  }
+  ROS_INFO("controller_node: reconfigured: v_max %.2f m/s, w_max %.2f rad/s, epsilon %.2f m, pose_timeout %.2f s",
+           p.max_linear_velocity, p.max_angular_velocity, p.goal_tolerance, options.pose_timeout);
+}
+
+void ControllerNode::publishState(const std::string& state) {
+  if (state == last_state_) return;
+  last_state_ = state;
+  std_msgs::String message;
+  message.data = state;
+  state_publisher_.publish(message);
 }
 
 void ControllerNode::onPose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& pose) {
   const auto planar = ros_conversions::toPose2D(pose->pose.pose);
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!follower_) return;
   if (!planar) {
     follower_->setFix(Pose2D(NAN, NAN, NAN), pose->header.stamp.toSec());
     ROS_WARN_THROTTLE(2.0, "controller_node: pose rejected (%s): stopping",
@@ -94,8 +231,10 @@ void ControllerNode::onPose(const geometry_msgs::PoseWithCovarianceStampedConstP
 }
 
 void ControllerNode::onHeading(const HeadingCorrectionStampedConstPtr& heading) {
-  if (heading->ok) return;
   std::lock_guard<std::mutex> lock(mutex_);
+  reference_index_ = heading->reference_index;
+  inliers_ = heading->inliers;
+  if (heading->ok || !follower_) return;
   follower_->setLost(heading->status);
 }
 
@@ -113,31 +252,77 @@ void ControllerNode::onScan(const sensor_msgs::LaserScanConstPtr& scan) {
 }
 
 void ControllerNode::onTimer(const ros::TimerEvent&) {
-  std::lock_guard<std::mutex> lock(mutex_);
   const ros::Time now = ros::Time::now();
-  static const std::vector<Eigen::Vector2d> kNoObstacles;
-  const bool fresh_scan = (now - obstacles_stamp_).toSec() <= scan_timeout_;
-  const FollowOutput out = follower_->update(now.toSec(), control_period_,
-                                             fresh_scan ? obstacles_ : kNoObstacles);
+  FollowOutput out;
+  RepeatRouteFeedback feedback;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!follower_) {
+      diagnostics_.update();
+      return;  // idle: no command, so another source (joystick) can drive
+    }
+    static const std::vector<Eigen::Vector2d> kNoObstacles;
+    const bool fresh_scan = (now - obstacles_stamp_).toSec() <= scan_timeout_;
+    out = follower_->update(now.toSec(), control_period_, fresh_scan ? obstacles_ : kNoObstacles);
+    feedback.reference_index = reference_index_;
+    feedback.inliers = inliers_;
+  }
   geometry_msgs::Twist command;
   command.linear.x = out.command.linear;
   command.angular.z = out.command.angular;
   command_publisher_.publish(command);
   if (out.state != last_output_.state || out.reason != last_output_.reason) {
-    std_msgs::String state;
-    state.data = toString(out.state) + (out.reason.empty() ? "" : ": " + out.reason);
-    state_publisher_.publish(state);
+    publishState(toString(out.state) + (out.reason.empty() ? "" : ": " + out.reason));
     if (out.state == FollowState::kStopped) {
       ROS_WARN("controller_node: stopped: %s", out.reason.c_str());
     } else {
-      ROS_INFO("controller_node: %s", state.data.c_str());
+      ROS_INFO("controller_node: %s", last_state_.c_str());
     }
   }
   last_output_ = out;
   diagnostics_.update();
+  if (!action_server_->isActive()) return;
+
+  feedback.progress = 100.0 * out.progress;
+  feedback.goal_index = out.goal_index;
+  feedback.lap = out.lap;
+  feedback.distance_to_goal = out.distance_to_goal;
+  feedback.state = toString(out.state);
+  feedback.reason = out.reason;
+  action_server_->publishFeedback(feedback);
+  RepeatRouteResult result;
+  result.progress = feedback.progress;
+  if (out.state == FollowState::kFinished) {
+    result.reached = true;
+    result.reason = "reached";
+    action_server_->setSucceeded(result, result.reason);
+    return;
+  }
+  // A goal waits for localization (kStopped/kWaiting) at most stop_abort_timeout.
+  if (out.state == FollowState::kFollowing) {
+    stopped_since_ = -1.0;
+  } else if (stopped_since_ < 0.0) {
+    stopped_since_ = now.toSec();
+  } else if (now.toSec() - stopped_since_ > stop_abort_timeout_) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      follower_.reset();
+    }
+    command_publisher_.publish(geometry_msgs::Twist());
+    result.reached = false;
+    result.reason = "stopped for more than stop_abort_timeout (" + std::to_string(stop_abort_timeout_) +
+                    " s): " + out.reason;
+    publishState("idle: goal aborted: " + out.reason);
+    ROS_ERROR("controller_node: repeat_route aborted: %s", result.reason.c_str());
+    action_server_->setAborted(result, result.reason);
+  }
 }
 
 void ControllerNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  if (!follower_) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "idle: no route");
+    return;
+  }
   const FollowOutput& out = last_output_;
   const unsigned char level = out.state == FollowState::kStopped ? diagnostic_msgs::DiagnosticStatus::WARN
                                                                   : diagnostic_msgs::DiagnosticStatus::OK;

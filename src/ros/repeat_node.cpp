@@ -34,6 +34,20 @@ RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
   return options;
 }
 
+HeadingAidedOdometryOptions readHeadingAidedOptions(const ros::NodeHandle& nh) {
+  HeadingAidedOdometryOptions o;
+  try {
+    o.position_variance_per_metre = readParameter(nh, "mu_position_variance_per_metre", o.position_variance_per_metre);
+    o.heading_fix_variance = readParameter(nh, "mu_heading_fix_variance", o.heading_fix_variance);
+    o.heading_variance_per_metre = readParameter(nh, "mu_heading_variance_per_metre", o.heading_variance_per_metre);
+    o.correction_gain = readParameter(nh, "mu_heading_correction_gain", o.correction_gain);
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
+  }
+  return o;
+}
+
 geometry_msgs::Quaternion yawQuaternion(double yaw) {
   geometry_msgs::Quaternion q;
   q.z = std::sin(yaw / 2.0);
@@ -56,6 +70,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
   const RepeatOptions options = readRepeatOptions(private_nh);
   mode_ = options.mode;
+  options_ = options;
+  heading_aided_ = HeadingAidedOdometry(readHeadingAidedOptions(private_nh));
   if (!(unobserved_variance_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("unobserved_variance") +
                              "' must be > 0");
@@ -88,8 +104,65 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
   diagnostics_timer_ =
       nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(private_nh_);
+  RepeatConfig config;
+  config.mode = toString(options.mode);
+  config.pixel_sigma = options.pose.pixel_sigma_px;
+  config.refine = options.pose.refine;
+  config.min_inliers = options.min_inliers;
+  config.neighbour_search = options.neighbour_search;
+  config.max_degraded_frames = options.max_degraded_frames;
+  reconfigure_server_->updateConfig(config);
+  reconfigure_server_->setCallback(
+      [this](RepeatConfig& c, uint32_t level) { onReconfigure(c, level); });
   ROS_INFO("repeat_node: route '%s' with %d keyframes, mode %s", directory.c_str(),
            localizer_->keyframeCount(), toString(options.mode).c_str());
+}
+
+void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  RepeatOptions options = options_;
+  auto revert = [&](const std::string& why) {
+    ROS_ERROR("repeat_node: reconfiguration refused: %s; keeping mode %s", why.c_str(),
+              toString(options_.mode).c_str());
+    last_status_ = Status(StatusCode::kInvalidInput, "reconfiguration refused: " + why);
+    config.mode = toString(options_.mode);
+    config.pixel_sigma = options_.pose.pixel_sigma_px;
+    config.refine = options_.pose.refine;
+    config.min_inliers = options_.min_inliers;
+    config.neighbour_search = options_.neighbour_search;
+    config.max_degraded_frames = options_.max_degraded_frames;
+  };
+  try {
+    options.mode = repeatModeFromString(config.mode);
+  } catch (const std::invalid_argument& e) {
+    return revert(e.what());
+  }
+  options.pose.pixel_sigma_px = config.pixel_sigma;
+  options.pose.refine = config.refine;
+  options.min_inliers = config.min_inliers;
+  options.neighbour_search = config.neighbour_search;
+  options.max_degraded_frames = config.max_degraded_frames;
+  if (options.mode == options_.mode && options.pose.pixel_sigma_px == options_.pose.pixel_sigma_px &&
+      options.pose.refine == options_.pose.refine && options.min_inliers == options_.min_inliers &&
+      options.neighbour_search == options_.neighbour_search &&
+      options.max_degraded_frames == options_.max_degraded_frames) {
+    return;  // the initial callback, or nothing changed
+  }
+  // A new localizer with the new options (a mode change loads other keyframe data), tracking the
+  // same keyframe; the old one stays when the route cannot support the change.
+  auto localizer = RepeatLocalizer::create(localizer_->route(), options);
+  if (!localizer) return revert(localizer.status().message());
+  const int tracked = localizer_->trackedKeyframe();
+  localizer_.emplace(std::move(*localizer));
+  localizer_->setTrackedKeyframe(tracked);
+  if (options.mode != options_.mode) debug_keyframe_ = -1;
+  options_ = options;
+  mode_ = options.mode;
+  ROS_INFO("repeat_node: reconfigured: mode %s, min_inliers %d, neighbour_search %d, pixel_sigma %.2f px",
+           toString(mode_).c_str(), options_.min_inliers, options_.neighbour_search,
+           options_.pose.pixel_sigma_px);
 }
 
 void RepeatNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
@@ -158,42 +231,84 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     publishMarkers(estimate->keyframe);
   }
   if (debug_publisher_.getNumSubscribers() > 0) publishDebugImage(image, *cv_image, &*estimate, "");
-  if (!estimate->has_pose) return;
+  if (estimate->has_pose) {
+    publishPose(image->header, estimate->base_pose,
+                estimate->covariance_known ? &estimate->covariance : nullptr);
+    if (publish_tf_) {
+      const auto odom = odometry_.poseAt(image->header.stamp.toSec());
+      if (!odom) {
+        ROS_WARN_THROTTLE(5.0, "repeat_node: no map -> odom tf: %s", odom.status().toString().c_str());
+        return;
+      }
+      publishMapToOdom(image->header.stamp, estimate->base_pose.compose(odom->inverse()));
+    }
+    return;
+  }
+  // mu mode: odometry position, visual heading.
+  const auto aided = headingAidedPose(image->header.stamp.toSec(), *estimate);
+  if (!aided) {
+    last_status_ = aided.status();
+    ROS_WARN_THROTTLE(2.0, "repeat_node: mu mode, no pose: %s", aided.status().toString().c_str());
+    return;
+  }
+  localizer_->advanceTrackingTo(aided->first);
+  publishPose(image->header, aided->first, &aided->second);
+  if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
+}
 
+Expected<std::pair<Pose2D, Eigen::Matrix3d>> RepeatNode::headingAidedPose(double stamp,
+                                                                         const RepeatEstimate& estimate) {
+  const auto odom = odometry_.poseAt(stamp);
+  if (!odom) {
+    return Status(StatusCode::kNoConsensus,
+                  "mu mode needs odometry ('odom') at the image stamp: " + odom.status().toString());
+  }
+  const Pose2D& keyframe = localizer_->route().keyframes[static_cast<std::size_t>(estimate.keyframe)].pose;
+  const double route_yaw = wrapToPi(keyframe.yaw + estimate.heading_correction);
+  if (!heading_aided_.aligned()) {
+    // The repeat run starts at the keyframe the robot was placed at (start_keyframe, or the best
+    // match of the global initialization), with the heading vision measures there.
+    const Status aligned = heading_aided_.align(Pose2D(keyframe.x, keyframe.y, route_yaw), *odom);
+    if (!aligned.isOk()) return aligned;
+    ROS_INFO("repeat_node: mu mode: odometry aligned to keyframe %d", estimate.keyframe);
+  }
+  const Status corrected = heading_aided_.correctHeading(route_yaw, *odom);
+  if (!corrected.isOk()) return corrected;
+  const auto pose = heading_aided_.routePose(*odom);
+  if (!pose) return pose.status();
+  return std::make_pair(*pose, heading_aided_.covariance());
+}
+
+void RepeatNode::publishPose(const std_msgs::Header& image_header, const Pose2D& base_pose,
+                             const Eigen::Matrix3d* covariance) {
   geometry_msgs::PoseWithCovarianceStamped pose;
-  pose.header.stamp = image->header.stamp;
+  pose.header.stamp = image_header.stamp;
   pose.header.frame_id = map_frame_;
-  pose.pose.pose.position.x = estimate->base_pose.x;
-  pose.pose.pose.position.y = estimate->base_pose.y;
-  pose.pose.pose.orientation = yawQuaternion(estimate->base_pose.yaw);
+  pose.pose.pose.position.x = base_pose.x;
+  pose.pose.pose.position.y = base_pose.y;
+  pose.pose.pose.orientation = yawQuaternion(base_pose.yaw);
   auto& c = pose.pose.covariance;  // row-major 6x6 (x, y, z, roll, pitch, yaw)
   c.fill(0.0);
   const int index[3] = {0, 1, 5};
   for (int r = 0; r < 3; ++r) {
     for (int k = 0; k < 3; ++k) {
       c[index[r] * 6 + index[k]] =
-          estimate->covariance_known ? estimate->covariance(r, k) : (r == k ? unobserved_variance_ : 0.0);
+          covariance != nullptr ? (*covariance)(r, k) : (r == k ? unobserved_variance_ : 0.0);
     }
   }
   c[2 * 6 + 2] = c[3 * 6 + 3] = c[4 * 6 + 4] = unobserved_variance_;
   pose_publisher_.publish(pose);
+}
 
-  if (publish_tf_) {
-    const auto odom = odometry_.poseAt(image->header.stamp.toSec());
-    if (!odom) {
-      ROS_WARN_THROTTLE(5.0, "repeat_node: no map -> odom tf: %s", odom.status().toString().c_str());
-      return;
-    }
-    const Pose2D map_to_odom = estimate->base_pose.compose(odom->inverse());
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = image->header.stamp;
-    t.header.frame_id = map_frame_;
-    t.child_frame_id = odom_frame_;
-    t.transform.translation.x = map_to_odom.x;
-    t.transform.translation.y = map_to_odom.y;
-    t.transform.rotation = yawQuaternion(map_to_odom.yaw);
-    tf_broadcaster_.sendTransform(t);
-  }
+void RepeatNode::publishMapToOdom(const ros::Time& stamp, const Pose2D& map_to_odom) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = map_frame_;
+  t.child_frame_id = odom_frame_;
+  t.transform.translation.x = map_to_odom.x;
+  t.transform.translation.y = map_to_odom.y;
+  t.transform.rotation = yawQuaternion(map_to_odom.yaw);
+  tf_broadcaster_.sendTransform(t);
 }
 
 void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,

@@ -9,20 +9,34 @@
 //             older than pose_timeout, when localization is lost, on NaN input and at the end of
 //             the route; ~state (std_msgs/String: waiting | following | stopped | finished);
 //             /diagnostics
-// Parameters: see config/controller_node.yaml
+// Action:     repeat_route (homography_teach_repeat/RepeatRouteAction): follow a route from a
+//             start to an end keyframe for some laps; feedback at the control rate (progress,
+//             goal, distance, repeat_node's reference keyframe and inliers); result reached, or
+//             aborted (bad goal, or stopped longer than stop_abort_timeout) / preempted with the
+//             reason. A new goal replaces the running route; without a goal the node follows
+//             ~route_directory from start-up when `autostart` is true, and is idle (publishes
+//             nothing, so a joystick can drive) otherwise.
+// Parameters: see config/controller_node.yaml; gains, limits and thresholds also through
+//             dynamic_reconfigure (cfg/Controller.cfg).
+// Callbacks run one at a time (ros::spin, or the nodelet's single-threaded queue).
 #pragma once
 
+#include <actionlib/server/simple_action_server.h>
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/ControllerConfig.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "homography_teach_repeat/RepeatRouteAction.h"
 #include "homography_teach_repeat/route_follower.h"
 
 namespace homography_teach_repeat {
@@ -40,15 +54,28 @@ class ControllerNode {
   void onScan(const sensor_msgs::LaserScanConstPtr& scan);
   void onTimer(const ros::TimerEvent& event);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void onGoal();
+  void onPreempt();
+  void onReconfigure(ControllerConfig& config, uint32_t level);
+  // Loads the route and starts following it; throws std::runtime_error naming the problem.
+  void startRoute(const std::string& directory, const RouteFollowerOptions& options);
+  void publishState(const std::string& state);
 
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
   double control_period_ = 0.05;
   double scan_timeout_ = 0.5;
+  double stop_abort_timeout_ = 10.0;
+  std::string default_directory_;
+  RouteFollowerOptions options_;  // start-up / reconfigured values; goals override the sequence
 
   std::mutex mutex_;
   std::optional<RouteFollower> follower_;
   FollowOutput last_output_;
+  std::string last_state_;
+  double stopped_since_ = -1.0;  // [s] when the robot stopped during an action goal (-1: not)
+  int reference_index_ = -1;     // from repeat_node's heading correction
+  unsigned inliers_ = 0;
   std::vector<Eigen::Vector2d> obstacles_;
   ros::Time obstacles_stamp_;
 
@@ -59,6 +86,8 @@ class ControllerNode {
   ros::Publisher state_publisher_;
   ros::Timer timer_;
   diagnostic_updater::Updater diagnostics_;
+  std::unique_ptr<actionlib::SimpleActionServer<RepeatRouteAction>> action_server_;
+  std::unique_ptr<dynamic_reconfigure::Server<ControllerConfig>> reconfigure_server_;
 };
 
 }  // namespace homography_teach_repeat

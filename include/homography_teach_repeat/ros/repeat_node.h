@@ -2,20 +2,24 @@
 // wrapper over RepeatLocalizer (core).
 //
 // Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber),
-//             odom (nav_msgs/Odometry; only for the optional map -> odom tf)
+//             odom (nav_msgs/Odometry; the position of the mu mode and the optional map -> odom tf)
 // Publishes:  ~pose (geometry_msgs/PoseWithCovarianceStamped): base_link in the route frame
-//             (`map_frame`), fast_hd and classic modes, successful estimates only. Covariance
-//             row-major (x, y, z, roll, pitch, yaw); z, roll and pitch are not estimated and get
-//             `unobserved_variance` (classic mode: every entry, it has no covariance model);
+//             (`map_frame`), successful estimates only: fast_hd and classic from the image; mu
+//             from the heading-aided odometry (odometry position, visual heading; its covariance
+//             is the model of heading_aided_odometry.h). Covariance row-major (x, y, z, roll,
+//             pitch, yaw); z, roll and pitch are not estimated and get `unobserved_variance`
+//             (classic mode: every entry, it has no covariance model);
 //             ~heading_correction (homography_teach_repeat/HeadingCorrectionStamped) every frame;
 //             ~route_markers (visualization_msgs/MarkerArray, latched): keyframes, planes, the
 //             current reference; ~debug_image (bgr8, only while subscribed: the reference
 //             keyframe beside the current image with the inlier matches, or the failure reason);
 //             /diagnostics; tf map_frame -> odom_frame (publish_tf).
-// Parameters: see config/repeat_node.yaml
+// Parameters: see config/repeat_node.yaml; mode, pixel_sigma, refine, min_inliers,
+//             neighbour_search and max_degraded_frames also through dynamic_reconfigure (cfg/Repeat.cfg).
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -25,10 +29,14 @@
 
 #include <opencv2/core.hpp>
 
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 
+#include "homography_teach_repeat/RepeatConfig.h"
+#include "homography_teach_repeat/heading_aided_odometry.h"
 #include "homography_teach_repeat/odometry_buffer.h"
 #include "homography_teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/status.h"
@@ -48,6 +56,13 @@ class RepeatNode {
   void publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,
                          const RepeatEstimate* estimate, const std::string& failure);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void onReconfigure(RepeatConfig& config, uint32_t level);
+  // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
+  // without odometry at that stamp.
+  Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
+  void publishPose(const std_msgs::Header& image_header, const Pose2D& pose,
+                   const Eigen::Matrix3d* covariance);
+  void publishMapToOdom(const ros::Time& stamp, const Pose2D& map_to_odom);
 
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
@@ -57,11 +72,13 @@ class RepeatNode {
   double unobserved_variance_ = 1e6;
   int start_keyframe_ = 0;
   RepeatMode mode_ = RepeatMode::kFastHd;
+  RepeatOptions options_;
 
   std::mutex mutex_;
   std::optional<RepeatLocalizer> localizer_;
   bool initialized_ = false;
   OdometryBuffer odometry_;
+  HeadingAidedOdometry heading_aided_;
   Status last_status_{StatusCode::kInvalidInput, "no image received yet"};
   unsigned frames_ = 0, failures_ = 0, degraded_ = 0;
   int last_inliers_ = 0;
@@ -81,6 +98,8 @@ class RepeatNode {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
+  // Declared last: its first callback runs in the constructor, when everything else exists.
+  std::unique_ptr<dynamic_reconfigure::Server<RepeatConfig>> reconfigure_server_;
 };
 
 }  // namespace homography_teach_repeat
