@@ -78,7 +78,8 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   action_server_->start();
 
   // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
-  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<ControllerConfig>>(private_nh_);
+  reconfigure_server_ =
+      std::make_unique<dynamic_reconfigure::Server<ControllerConfig>>(reconfigure_mutex_, private_nh_);
   const PotentialFieldParameters& p = options_.controller;
   ControllerConfig config;
   config.viscous_friction = p.viscous_friction;

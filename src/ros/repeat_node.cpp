@@ -105,7 +105,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   diagnostics_timer_ =
       nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
   // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
-  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(private_nh_);
+  reconfigure_server_ =
+      std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(reconfigure_mutex_, private_nh_);
   RepeatConfig config;
   config.mode = toString(options.mode);
   config.pixel_sigma = options.pose.pixel_sigma_px;

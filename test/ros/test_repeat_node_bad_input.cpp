@@ -21,7 +21,13 @@ TEST(RepeatNode, BadInputIsReportedAndSurvived) {
       "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
   ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
       "repeat_node/pose", 20, [&](const auto&) { ++poses; });
-  ASSERT_TRUE(test_support::spinUntil([&] { return camera.getNumSubscribers() > 0; }, 30.0));
+  // Every connection up before the first image (the node publishes its answers at once).
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] {
+        return camera.getNumSubscribers() > 0 && heading_sub.getNumPublishers() > 0 &&
+               pose_sub.getNumPublishers() > 0;
+      },
+      30.0));
 
   const CameraCalibration c = test_support::syntheticCalibration();
   auto info = [&](const std_msgs::Header& header, double focal) {

@@ -1,7 +1,9 @@
 // Feeds repeat_node images of the synthetic wall from poses beside the taught path.
 #include <gtest/gtest.h>
 
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -12,22 +14,11 @@
 #include "../core/synthetic_route.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "node_test_helpers.h"
+#include "synthetic_camera.h"
 
 using namespace homography_teach_repeat;
 
-namespace {
-
-sensor_msgs::CameraInfo syntheticCameraInfo() {
-  const CameraCalibration c = test_support::syntheticCalibration();
-  sensor_msgs::CameraInfo info = test_support::makeCameraInfo(c.width, c.height, c.fx);
-  info.K[2] = c.cx;
-  info.K[5] = c.cy;
-  info.P[2] = c.cx;
-  info.P[6] = c.cy;
-  return info;
-}
-
-}  // namespace
+using test_support::syntheticCameraInfo;
 
 TEST(RepeatNode, PosesHeadingAndMarkers) {
   ros::NodeHandle nh;
@@ -46,7 +37,11 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
   ros::Subscriber marker_sub = nh.subscribe<visualization_msgs::MarkerArray>(
       "repeat_node/route_markers", 1, [&](const auto& m) { markers = *m; });
   ASSERT_TRUE(test_support::spinUntil(
-      [&] { return camera.getNumSubscribers() > 0 && !markers.markers.empty(); }, 30.0));
+      [&] {
+        return camera.getNumSubscribers() > 0 && !markers.markers.empty() &&
+               heading_sub.getNumPublishers() > 0 && pose_sub.getNumPublishers() > 0;
+      },
+      30.0));
   int arrows = 0, planes = 0;
   for (const auto& m : markers.markers) {
     arrows += m.ns == "keyframes" ? 1 : 0;
@@ -118,6 +113,81 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
   ros::WallDuration(0.5).sleep();
   ros::spinOnce();
   EXPECT_EQ(poses.size(), poses_before);
+}
+
+namespace {
+
+// Sets repeat_node's mode through dynamic_reconfigure; returns the mode the node reports back.
+std::string reconfigureMode(const std::string& mode) {
+  dynamic_reconfigure::Reconfigure srv;
+  dynamic_reconfigure::StrParameter parameter;
+  parameter.name = "mode";
+  parameter.value = mode;
+  srv.request.config.strs.push_back(parameter);
+  EXPECT_TRUE(ros::service::waitForService("repeat_node/set_parameters", ros::Duration(10.0)));
+  EXPECT_TRUE(ros::service::call("repeat_node/set_parameters", srv));
+  for (const auto& s : srv.response.config.strs) {
+    if (s.name == "mode") return s.value;
+  }
+  return "";
+}
+
+}  // namespace
+
+// dynamic_reconfigure switches to the mu mode at run time: heading corrections from vertical
+// lines and, with odometry, the heading-aided pose; an unknown mode is refused.
+TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
+  ros::NodeHandle nh;
+  image_transport::ImageTransport it(nh);
+  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
+  std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
+  std::vector<HeadingCorrectionStamped> headings;
+  ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+      "repeat_node/pose", 20, [&](const auto& m) { poses.push_back(*m); });
+  ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(
+      "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] {
+        return camera.getNumSubscribers() > 0 && odom_pub.getNumSubscribers() > 0 &&
+               heading_sub.getNumPublishers() > 0 && pose_sub.getNumPublishers() > 0;
+      },
+      30.0));
+  EXPECT_EQ(reconfigureMode("no_such_mode"), "fast_hd");
+  ASSERT_EQ(reconfigureMode("mu"), "mu");
+
+  const test_support::SyntheticWall wall;
+  const double s = 1.0;
+  const PlanarPose camera_pose(0.08 * s, s, 0.04 * s + 0.02);
+  const Pose2D truth = cameraAxesToRep103(camera_pose);
+  for (const double t : {299.9, 300.0, 300.1}) {
+    nav_msgs::Odometry odom;
+    odom.header.stamp = ros::Time(t);
+    odom.header.frame_id = "odom";
+    odom.pose.pose.position.x = 5.0;  // the odometry frame of this run differs from the route's
+    odom.pose.pose.orientation.w = 1.0;
+    odom_pub.publish(odom);
+  }
+  ros::WallDuration(0.2).sleep();
+  ros::spinOnce();
+  auto image = test_support::makeImage(wall.imageAt(camera_pose), "mono8");
+  image->header.stamp = ros::Time(300.0);
+  sensor_msgs::CameraInfo info = syntheticCameraInfo();
+  info.header = image->header;
+  camera.publish(*image, info);
+  ASSERT_TRUE(test_support::spinUntil([&] { return !headings.empty(); }, 30.0));
+  EXPECT_TRUE(headings.back().ok) << headings.back().status;
+  EXPECT_EQ(headings.back().mode, "mu");
+  ASSERT_TRUE(test_support::spinUntil([&] { return !poses.empty(); }, 5.0)) << "no mu-mode pose";
+  const auto& p = poses.back().pose;
+  const double yaw = 2.0 * std::atan2(p.pose.orientation.z, p.pose.orientation.w);
+  // The visual heading (within the translation coupling of μ for this 10 cm offset).
+  EXPECT_NEAR(wrapToPi(yaw - truth.yaw), 0.0, 2.0 * M_PI / 180.0);
+  // The position: the keyframe the robot was assumed at (alignment), in the route frame.
+  EXPECT_LT(std::hypot(p.pose.position.x - truth.x, p.pose.position.y - truth.y), 0.3);
+  EXPECT_GT(p.covariance[35], 0.0);
+  EXPECT_EQ(p.covariance[14], 1e6);
+  EXPECT_EQ(reconfigureMode("fast_hd"), "fast_hd");
 }
 
 int main(int argc, char** argv) {

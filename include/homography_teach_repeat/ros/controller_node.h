@@ -87,6 +87,7 @@ class ControllerNode {
   ros::Timer timer_;
   diagnostic_updater::Updater diagnostics_;
   std::unique_ptr<actionlib::SimpleActionServer<RepeatRouteAction>> action_server_;
+  boost::recursive_mutex reconfigure_mutex_;  // ours, so updateConfig() cannot deadlock
   std::unique_ptr<dynamic_reconfigure::Server<ControllerConfig>> reconfigure_server_;
 };
 

@@ -99,6 +99,7 @@ class RepeatNode {
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
   // Declared last: its first callback runs in the constructor, when everything else exists.
+  boost::recursive_mutex reconfigure_mutex_;  // ours, so updateConfig() cannot deadlock
   std::unique_ptr<dynamic_reconfigure::Server<RepeatConfig>> reconfigure_server_;
 };
 
