@@ -1,6 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <iterator>
 #include <set>
+#include <utility>
+
+#include <opencv2/features2d.hpp>
 
 #include "homography_teach_repeat/feature_matcher.h"
 #include "test_images.h"
@@ -40,6 +45,35 @@ TEST_P(MatcherForType, MatchesAreMostlyCorrectAndOneToOne) {
   EXPECT_GT(correct, static_cast<int>(0.9 * points.size()));
   std::set<int> used;
   for (const auto& m : *matches) EXPECT_TRUE(used.insert(m.trainIdx).second);
+}
+
+// The distance matrix (popcount Hamming for binary descriptors, batchDistance for SIFT) gives
+// exactly the matches of OpenCV's brute-force matcher with the same ratio test and mutual check.
+TEST_P(MatcherForType, SameMatchesAsOpenCvBruteForce) {
+  const Pair pair = extractPair(GetParam());
+  const MatchOptions options;
+  const auto matches = matchFeatures(pair.reference, pair.current, options);
+  ASSERT_TRUE(matches.isOk());
+  const int norm = hasBinaryDescriptor(GetParam()) ? cv::NORM_HAMMING : cv::NORM_L2;
+  cv::BFMatcher matcher(norm);
+  std::vector<std::vector<cv::DMatch>> forward;
+  matcher.knnMatch(pair.reference.descriptors, pair.current.descriptors, forward, 2);
+  std::vector<cv::DMatch> backward;
+  matcher.match(pair.current.descriptors, pair.reference.descriptors, backward);
+  std::set<std::pair<int, int>> expected;
+  for (const auto& two : forward) {
+    if (two.size() < 2 || !(two[0].distance < options.ratio * two[1].distance)) continue;
+    if (backward[static_cast<std::size_t>(two[0].trainIdx)].trainIdx != two[0].queryIdx) continue;
+    expected.emplace(two[0].queryIdx, two[0].trainIdx);
+  }
+  std::set<std::pair<int, int>> got;
+  for (const auto& m : *matches) got.emplace(m.queryIdx, m.trainIdx);
+  // Ties between equal distances may resolve differently; allow 1% of them.
+  std::vector<std::pair<int, int>> differing;
+  std::set_symmetric_difference(got.begin(), got.end(), expected.begin(), expected.end(),
+                                std::back_inserter(differing));
+  EXPECT_LE(differing.size(), expected.size() / 100) << got.size() << " vs " << expected.size();
+  EXPECT_GT(expected.size(), 50u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Available, MatcherForType,
