@@ -2,6 +2,7 @@
 
 #include <opencv2/features2d.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -17,77 +18,91 @@ void MatchOptions::validate() const {
 
 namespace {
 
-// Hamming distances between the rows of two CV_8U descriptor matrices, as CV_32F (exact: at most
-// 8 * cols). The rows are copied into zero-padded 64-bit words (the padding XORs to zero).
+// Descriptor rows as zero-padded 64-bit words (the padding XORs to zero in a Hamming distance).
 std::vector<std::uint64_t> toWords(const cv::Mat& descriptors, int words) {
   std::vector<std::uint64_t> out(static_cast<std::size_t>(descriptors.rows) * static_cast<std::size_t>(words), 0);
   for (int r = 0; r < descriptors.rows; ++r) {
-    std::memcpy(out.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(words), descriptors.ptr<std::uint8_t>(r),
-                static_cast<std::size_t>(descriptors.cols));
+    std::memcpy(out.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(words),
+                descriptors.ptr<std::uint8_t>(r), static_cast<std::size_t>(descriptors.cols));
   }
   return out;
 }
 
-// The POPCNT instruction where the CPU has it (x86-64 builds are not compiled for it by default:
-// a plain __builtin_popcountll becomes a library call), chosen once at load time.
+// Hamming distances of one reference row to every current row. cv::batchDistance calls
+// cv::normHamming once per pair (~12 ns for a 32-byte ORB descriptor with its dispatch and tracing
+// overhead); this loop uses the POPCNT instruction where the CPU has it (x86-64 builds are not
+// compiled for it by default, and a plain __builtin_popcountll becomes a library call), chosen
+// once at load time.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
-void hammingRows(const std::uint64_t* a, int rows_a, const std::uint64_t* b, int rows_b, int words,
-                 float* out) {
-  for (int i = 0; i < rows_a; ++i) {
-    const std::uint64_t* x = a + static_cast<std::ptrdiff_t>(i) * words;
-    float* row = out + static_cast<std::ptrdiff_t>(i) * rows_b;
-    for (int j = 0; j < rows_b; ++j) {
-      const std::uint64_t* y = b + static_cast<std::ptrdiff_t>(j) * words;
-      int d = 0;
-      for (int w = 0; w < words; ++w) d += __builtin_popcountll(x[w] ^ y[w]);
-      row[j] = static_cast<float>(d);
-    }
+void hammingRow(const std::uint64_t* x, const std::uint64_t* b, int rows_b, int words, float* out) {
+  for (int j = 0; j < rows_b; ++j) {
+    const std::uint64_t* y = b + static_cast<std::ptrdiff_t>(j) * words;
+    int d = 0;
+    for (int w = 0; w < words; ++w) d += __builtin_popcountll(x[w] ^ y[w]);
+    out[j] = static_cast<float>(d);
   }
 }
 
-cv::Mat hammingDistanceMatrix(const cv::Mat& a, const cv::Mat& b) {
-  const int words = (a.cols + 7) / 8;
-  const std::vector<std::uint64_t> wa = toWords(a, words), wb = toWords(b, words);
-  cv::Mat distances(a.rows, b.rows, CV_32F);
-  hammingRows(wa.data(), a.rows, wb.data(), b.rows, words, distances.ptr<float>());
-  return distances;
-}
-
-// Lowe's ratio test on the two nearest neighbours of each row, and the mutual check against the
-// nearest row of each column, from one distance matrix (rows: reference, columns: current).
-std::vector<cv::DMatch> matchFromDistances(const cv::Mat& distances, const MatchOptions& options) {
-  std::vector<cv::DMatch> result;
-  const int rows = distances.rows;
-  const int cols = distances.cols;
-  std::vector<int> column_best(static_cast<std::size_t>(cols), -1);
-  std::vector<float> column_best_distance(static_cast<std::size_t>(cols),
-                                          std::numeric_limits<float>::infinity());
+// Lowe's ratio test on the two nearest neighbours of each reference row, and the mutual check
+// against the nearest reference row of each current column. `distancesOfRow(i, out)` fills the
+// distances of reference row i to all `cols` current rows. Blocks of rows run in parallel
+// (cv::parallel_for_), each with its own column minima, merged in row order so that ties resolve
+// as in a sequential scan (the first row wins).
+template <class DistancesOfRow>
+std::vector<cv::DMatch> ratioAndMutualMatches(int rows, int cols, const DistancesOfRow& distancesOfRow,
+                                              const MatchOptions& options) {
   std::vector<int> row_best(static_cast<std::size_t>(rows), -1);
-  std::vector<float> row_best_distance(static_cast<std::size_t>(rows)), row_second_distance(static_cast<std::size_t>(rows));
-  for (int i = 0; i < rows; ++i) {
-    const float* row = distances.ptr<float>(i);
-    float best = std::numeric_limits<float>::infinity(), second = best;
-    int best_index = -1;
-    for (int j = 0; j < cols; ++j) {
-      const float d = row[j];
-      if (d < best) {
-        second = best;
-        best = d;
-        best_index = j;
-      } else if (d < second) {
-        second = d;
-      }
-      if (d < column_best_distance[static_cast<std::size_t>(j)]) {
-        column_best_distance[static_cast<std::size_t>(j)] = d;
-        column_best[static_cast<std::size_t>(j)] = i;
+  std::vector<float> row_best_distance(static_cast<std::size_t>(rows));
+  std::vector<float> row_second_distance(static_cast<std::size_t>(rows));
+  const int blocks = std::max(1, std::min(rows, 4 * std::max(1, cv::getNumThreads())));
+  std::vector<std::vector<int>> block_column_best(static_cast<std::size_t>(blocks));
+  std::vector<std::vector<float>> block_column_distance(static_cast<std::size_t>(blocks));
+  cv::parallel_for_(cv::Range(0, blocks), [&](const cv::Range& range) {
+    std::vector<float> row(static_cast<std::size_t>(cols));
+    for (int block = range.start; block < range.end; ++block) {
+      auto& column_best = block_column_best[static_cast<std::size_t>(block)];
+      auto& column_distance = block_column_distance[static_cast<std::size_t>(block)];
+      column_best.assign(static_cast<std::size_t>(cols), -1);
+      column_distance.assign(static_cast<std::size_t>(cols), std::numeric_limits<float>::infinity());
+      const int first = static_cast<int>(static_cast<long>(rows) * block / blocks);
+      const int last = static_cast<int>(static_cast<long>(rows) * (block + 1) / blocks);
+      for (int i = first; i < last; ++i) {
+        distancesOfRow(i, row.data());
+        float best = std::numeric_limits<float>::infinity(), second = best;
+        int best_index = -1;
+        for (int j = 0; j < cols; ++j) {
+          const float d = row[static_cast<std::size_t>(j)];
+          if (d < best) {
+            second = best;
+            best = d;
+            best_index = j;
+          } else if (d < second) {
+            second = d;
+          }
+          if (d < column_distance[static_cast<std::size_t>(j)]) {
+            column_distance[static_cast<std::size_t>(j)] = d;
+            column_best[static_cast<std::size_t>(j)] = i;
+          }
+        }
+        row_best[static_cast<std::size_t>(i)] = best_index;
+        row_best_distance[static_cast<std::size_t>(i)] = best;
+        row_second_distance[static_cast<std::size_t>(i)] = second;
       }
     }
-    row_best[static_cast<std::size_t>(i)] = best_index;
-    row_best_distance[static_cast<std::size_t>(i)] = best;
-    row_second_distance[static_cast<std::size_t>(i)] = second;
+  });
+  std::vector<int> column_best = block_column_best[0];
+  std::vector<float> column_distance = block_column_distance[0];
+  for (std::size_t block = 1; block < block_column_best.size(); ++block) {
+    for (std::size_t j = 0; j < column_best.size(); ++j) {
+      if (block_column_distance[block][j] < column_distance[j]) {
+        column_distance[j] = block_column_distance[block][j];
+        column_best[j] = block_column_best[block][j];
+      }
+    }
   }
+  std::vector<cv::DMatch> result;
   for (int i = 0; i < rows; ++i) {
     const int j = row_best[static_cast<std::size_t>(i)];
     if (j < 0) continue;
@@ -118,25 +133,35 @@ Expected<std::vector<cv::DMatch>> matchFeatures(const ImageFeatures& reference,
   if (hasBinaryDescriptor(reference.type) && reference.descriptors.depth() != CV_8U) {
     return Status(StatusCode::kInvalidInput, "binary descriptors must be 8-bit");
   }
-  // One pass of distance computations (the expensive part): the full distance matrix, then the
-  // forward two nearest neighbours per row and the backward nearest neighbour per column are read
-  // from it. Two brute-force passes (knnMatch + match) cost twice as much (ORB 1500 x 1500:
-  // 36 -> 20 ms measured under load).
-  cv::Mat distances;
+  // One pass of distance computations (the expensive part): the forward two nearest neighbours
+  // per row and the backward nearest neighbour per column come from the same distances. Two
+  // brute-force passes (knnMatch + match) cost twice as much; see bench_repeat_localizer
+  // (BM_MatchOrb1500_*) for this against OpenCV's brute force.
+  const cv::Mat& ref = reference.descriptors;
+  const cv::Mat& cur = current.descriptors;
   if (hasBinaryDescriptor(reference.type)) {
-    // cv::batchDistance calls cv::normHamming once per pair (~12 ns for a 32-byte ORB descriptor
-    // with its dispatch and tracing overhead); a popcount loop over 64-bit words is several
-    // times faster (bench_repeat_localizer: BM_MatchOrb1500_*).
-    distances = hammingDistanceMatrix(reference.descriptors, current.descriptors);
-  } else {
-    try {
-      cv::batchDistance(reference.descriptors, current.descriptors, distances, CV_32F, cv::noArray(),
-                        cv::NORM_L2, 0);
-    } catch (const cv::Exception& e) {
-      return Status(StatusCode::kInvalidInput, std::string("descriptor matching: ") + e.what());
-    }
+    const int words = (ref.cols + 7) / 8;
+    const std::vector<std::uint64_t> ref_words = toWords(ref, words), cur_words = toWords(cur, words);
+    return ratioAndMutualMatches(
+        ref.rows, cur.rows,
+        [&](int i, float* out) {
+          hammingRow(ref_words.data() + static_cast<std::ptrdiff_t>(i) * words, cur_words.data(), cur.rows,
+                     words, out);
+        },
+        options);
   }
-  return matchFromDistances(distances, options);
+  if (ref.depth() != CV_32F) return Status(StatusCode::kInvalidInput, "float descriptors must be CV_32F");
+  try {
+    return ratioAndMutualMatches(
+        ref.rows, cur.rows,
+        [&](int i, float* out) {
+          cv::Mat row(1, cur.rows, CV_32F, out);
+          cv::batchDistance(ref.row(i), cur, row, CV_32F, cv::noArray(), cv::NORM_L2, 0);
+        },
+        options);
+  } catch (const cv::Exception& e) {
+    return Status(StatusCode::kInvalidInput, std::string("descriptor matching: ") + e.what());
+  }
 }
 
 PointMatches toPointMatches(const ImageFeatures& reference, const ImageFeatures& current,
