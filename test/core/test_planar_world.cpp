@@ -14,6 +14,7 @@
 #include "homography_teach_repeat/homography.h"
 #include "homography_teach_repeat/planar_world.h"
 #include "homography_teach_repeat/robust_homography.h"
+#include "homography_teach_repeat/waypoint_driver.h"
 #include "homography_teach_repeat/world_renderer.h"
 #include "test_images.h"
 
@@ -205,4 +206,28 @@ TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
   OdometryErrorModel bad;
   bad.distance_noise = -1.0;
   EXPECT_THROW(DifferentialDriveSim(Pose2D(), bad, DriveLimits()), std::invalid_argument);
+}
+
+// The scripted teach drive goes round a 4 x 3 m loop and stops at its start.
+TEST(WaypointDriver, DrivesTheLoopAndStops) {
+  const std::vector<Eigen::Vector2d> loop = {{4, 0}, {4, 3}, {0, 3}, {0, 0}};
+  WaypointDriver driver(loop, WaypointDriverOptions());
+  Pose2D pose(0.0, 0.0, 0.0);
+  double max_off_path = 0.0;
+  int steps = 0;
+  for (; steps < 20000 && !driver.finished(); ++steps) {
+    const VelocityCommand c = driver.update(pose);
+    pose = integrateArc(pose, c.linear, c.angular, 0.02);
+    // Distance to the loop's rectangle outline.
+    const double dx = std::min(std::abs(pose.x), std::abs(pose.x - 4.0));
+    const double dy = std::min(std::abs(pose.y), std::abs(pose.y - 3.0));
+    max_off_path = std::max(max_off_path, std::min(dx, dy));
+  }
+  EXPECT_TRUE(driver.finished());
+  EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);
+  EXPECT_LT(max_off_path, 0.05);
+  const VelocityCommand stopped = driver.update(pose);
+  EXPECT_EQ(stopped.linear, 0.0);
+  EXPECT_EQ(stopped.angular, 0.0);
+  EXPECT_THROW(WaypointDriver({}, WaypointDriverOptions()), std::invalid_argument);
 }

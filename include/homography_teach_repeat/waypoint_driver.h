@@ -1,0 +1,43 @@
+// Drives a differential base through a list of waypoints, for the scripted teach run of the
+// simulator (the human with the joystick): turn in place towards the next waypoint when it is
+// more than `turn_in_place_angle` off the heading, otherwise drive at `linear_speed` with a
+// proportional heading correction, slowing down before the last waypoint.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "homography_teach_repeat/planar_pose.h"
+#include "homography_teach_repeat/potential_field_controller.h"
+
+namespace homography_teach_repeat {
+
+struct WaypointDriverOptions {
+  double linear_speed = 0.3;           // [m/s] > 0
+  double angular_speed = 0.6;          // [rad/s] > 0, largest turn rate
+  double heading_gain = 2.0;           // [1/s] > 0, turn rate per radian of heading error
+  double position_tolerance = 0.05;    // [m] > 0, a waypoint is reached within this
+  double turn_in_place_angle = 0.25;   // [rad] > 0
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+class WaypointDriver {
+ public:
+  // Throws std::invalid_argument on invalid options, no waypoint or a non-finite waypoint.
+  WaypointDriver(std::vector<Eigen::Vector2d> waypoints, const WaypointDriverOptions& options);
+
+  // The command for the robot at `pose`; zero once the last waypoint is reached (or for a
+  // non-finite pose).
+  VelocityCommand update(const Pose2D& pose);
+  bool finished() const { return next_ >= waypoints_.size(); }
+  std::size_t nextWaypoint() const { return next_; }
+
+ private:
+  std::vector<Eigen::Vector2d> waypoints_;
+  WaypointDriverOptions options_;
+  std::size_t next_ = 0;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,50 @@
+#include "homography_teach_repeat/waypoint_driver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace homography_teach_repeat {
+
+void WaypointDriverOptions::validate() const {
+  const std::pair<const char*, double> fields[] = {{"linear_speed", linear_speed},
+                                                   {"angular_speed", angular_speed},
+                                                   {"heading_gain", heading_gain},
+                                                   {"position_tolerance", position_tolerance},
+                                                   {"turn_in_place_angle", turn_in_place_angle}};
+  for (const auto& [name, value] : fields) {
+    if (!std::isfinite(value) || !(value > 0.0)) {
+      throw std::invalid_argument(std::string("waypoint driver: ") + name + " must be > 0");
+    }
+  }
+}
+
+WaypointDriver::WaypointDriver(std::vector<Eigen::Vector2d> waypoints, const WaypointDriverOptions& options)
+    : waypoints_(std::move(waypoints)), options_(options) {
+  options_.validate();
+  if (waypoints_.empty()) throw std::invalid_argument("waypoint driver: no waypoints");
+  for (const auto& w : waypoints_) {
+    if (!w.allFinite()) throw std::invalid_argument("waypoint driver: non-finite waypoint");
+  }
+}
+
+VelocityCommand WaypointDriver::update(const Pose2D& pose) {
+  VelocityCommand command;
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw)) return command;
+  while (next_ < waypoints_.size() &&
+         (waypoints_[next_] - Eigen::Vector2d(pose.x, pose.y)).norm() < options_.position_tolerance) {
+    ++next_;
+  }
+  if (finished()) return command;
+  const Eigen::Vector2d to_goal = waypoints_[next_] - Eigen::Vector2d(pose.x, pose.y);
+  const double error = wrapToPi(std::atan2(to_goal.y(), to_goal.x()) - pose.yaw);
+  command.angular = std::clamp(options_.heading_gain * error, -options_.angular_speed, options_.angular_speed);
+  if (std::abs(error) > options_.turn_in_place_angle) return command;  // turn in place first
+  const bool last = next_ + 1 == waypoints_.size();
+  const double speed = last ? std::min(options_.linear_speed, 0.5 * to_goal.norm() + 0.02) : options_.linear_speed;
+  command.linear = speed * std::cos(error);
+  return command;
+}
+
+}  // namespace homography_teach_repeat
