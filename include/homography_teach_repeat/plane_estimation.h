@@ -68,9 +68,18 @@ Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
                                          const PinholeCamera& camera, const ScenePlane& first_plane,
                                          const PlanarPose& motion);
 
+// MATH.md §2.4, "simpler equivalent without the homology": the plane (in the reference frame)
+// that induces H21 between two cameras whose metric motion is known (camera 2 in the reference
+// frame, e.g. from odometry): m = (R21 − K⁻¹(H21/κ)K)ᵀ t21 / |t21|², n = m/|m|, d = 1/|m|.
+// Status: kDegenerate (translation below `min_baseline` [m]: a rotation does not see the plane;
+// κ = 0; the plane at infinity or behind the camera), kNotFinite.
+Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                                 const PlanarPose& motion, double min_baseline = 1e-6);
+
 // One step of the teach sequence: the homography from reference k to reference k+1 (of the
 // plane tracked along the route), the inlier reference pixels, and the odometry motion.
 struct ReferencePair {
+  bool has_homography = true;  // false: no homography between the two keyframes (odometry mode)
   Eigen::Matrix3d H_next_from_current = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector2d> reference_pixels;
   bool has_odometry = false;
@@ -89,5 +98,21 @@ Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<Referen
                                                       const PinholeCamera& camera,
                                                       double first_plane_distance,
                                                       const FirstPlaneOptions& options = {});
+
+// The planes along a route from odometry (a route that passes several walls, e.g. round a room):
+// each keyframe's plane from its pair's homography and the odometry motion
+// (planeFromHomographyAndMotion) when the pair has at least `min_baseline` [m] of translation and
+// the result is plausible (in front of the camera, not a floor/ceiling, nearer than
+// `max_distance`); otherwise the previous keyframe's plane transferred by the motion (§2.2; e.g.
+// while turning in place). The last keyframe inherits the transfer of the one before it.
+// Status: kInvalidInput (no pairs, a pair without odometry), kDegenerate (no keyframe could be
+// estimated before the first transfer was needed).
+struct OdometryPlaneOptions {
+  double min_baseline = 0.15;  // [m]
+  double max_distance = 50.0;  // [m]
+};
+Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
+                                                        const PinholeCamera& camera,
+                                                        const OdometryPlaneOptions& options = {});
 
 }  // namespace homography_teach_repeat

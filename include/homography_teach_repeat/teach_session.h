@@ -31,6 +31,10 @@ struct TeachOptions {
   VerticalLineOptions lines;
   KeyframePolicy keyframes;
   double first_plane_distance = 0.0;  // [m], > 0 for plane estimation; 0 skips it
+  // Planes from each keyframe pair's homography and the odometry motion (estimatePlanesFromOdometry:
+  // routes past several walls, e.g. round a room) instead of the paper's single plane tracked
+  // from the first keyframe; first_plane_distance is then not needed.
+  bool planes_from_odometry = false;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <limits>
 #include <string>
 
@@ -207,6 +208,69 @@ Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<Referen
     route.planes.push_back(*next);
   }
   return route;
+}
+
+Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                                 const PlanarPose& motion, double min_baseline) {
+  if (!H21.allFinite() || !motion.isFinite()) {
+    return Status(StatusCode::kNotFinite, "homography and motion must be finite");
+  }
+  const Eigen::Matrix3d R21 = motion.rotation21();
+  const Eigen::Vector3d t21 = R21 * motion.centre();
+  if (!(t21.norm() >= min_baseline) || !(t21.norm() > 1e-12)) {
+    return Status(StatusCode::kDegenerate, "the motion has no translation: the plane is not observable");
+  }
+  const double kappa = kappaOf(H21, camera);
+  if (!(std::abs(kappa) > 1e-12 * H21.norm())) {
+    return Status(StatusCode::kDegenerate, "κ is zero: not a homography of planar motion");
+  }
+  const Eigen::Matrix3d Hc = camera.Kinverse() * (H21 / kappa) * camera.K();
+  const Eigen::Vector3d m = (R21 - Hc).transpose() * t21 / t21.squaredNorm();
+  const double norm = m.norm();
+  if (!std::isfinite(norm)) return Status(StatusCode::kNotFinite, "plane is not finite");
+  if (!(norm > 1e-12)) return Status(StatusCode::kDegenerate, "plane at infinity");
+  return ScenePlane{m / norm, 1.0 / norm};
+}
+
+Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
+                                                        const PinholeCamera& camera,
+                                                        const OdometryPlaneOptions& options) {
+  if (pairs.empty()) return Status(StatusCode::kInvalidInput, "no reference pairs");
+  RouteSequencePlanes result;
+  std::vector<std::optional<ScenePlane>> planes(pairs.size() + 1);
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!pairs[k].has_odometry) {
+      return Status(StatusCode::kInvalidInput, "pair " + std::to_string(k) + " has no odometry motion");
+    }
+    if (!pairs[k].has_homography) continue;
+    const auto plane = planeFromHomographyAndMotion(pairs[k].H_next_from_current, camera,
+                                                    pairs[k].odometry_motion, options.min_baseline);
+    // Plausible: a wall (not floor/ceiling), in front of the camera, not too far.
+    if (plane && plane->validate().isOk() && plane->normal.z() > 0.0 && plane->distance < options.max_distance) {
+      planes[k] = *plane;
+    }
+  }
+  // Fill the gaps by transferring the previous plane along the motion (§2.2); before the first
+  // estimate, backwards from the next one.
+  for (std::size_t k = 1; k < planes.size(); ++k) {
+    if (planes[k] || !planes[k - 1]) continue;
+    const auto moved = transferPlane(*planes[k - 1], pairs[k - 1].odometry_motion);
+    if (moved) planes[k] = *moved;
+  }
+  for (std::size_t k = planes.size() - 1; k-- > 0;) {
+    if (planes[k] || !planes[k + 1]) continue;
+    const auto moved = transferPlane(*planes[k + 1], pairs[k].odometry_motion.inverse());
+    if (moved) planes[k] = *moved;
+  }
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    if (!planes[k]) {
+      return Status(StatusCode::kDegenerate, "no plane for keyframe " + std::to_string(k) +
+                                                 ": no pair with enough baseline nearby");
+    }
+    result.planes.push_back(*planes[k]);
+  }
+  for (const auto& pair : pairs) result.motions.push_back(pair.odometry_motion);
+  return result;
 }
 
 }  // namespace homography_teach_repeat

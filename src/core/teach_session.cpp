@@ -78,7 +78,7 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     return Status(StatusCode::kTooFewPoints, "plane estimation needs at least 2 keyframes, have " +
                                                  std::to_string(route.keyframes.size()));
   }
-  if (!(options_.first_plane_distance > 0.0)) {
+  if (!options_.planes_from_odometry && !(options_.first_plane_distance > 0.0)) {
     return Status(StatusCode::kInvalidInput,
                   "first_plane_distance is not set: planes cannot be given a metric scale");
   }
@@ -89,9 +89,16 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   for (std::size_t k = 0; k + 1 < route.keyframes.size(); ++k) {
     const auto dmatches =
         matchFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching);
+    ReferencePair pair;
+    pair.has_odometry = true;
+    pair.odometry_motion =
+        mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
     if (!dmatches) {
       report.messages.push_back("pair " + std::to_string(k) + ": " + dmatches.status().toString());
-      break;
+      if (!options_.planes_from_odometry) break;
+      pair.has_homography = false;
+      pairs.push_back(pair);
+      continue;
     }
     PointMatches matches = toPointMatches(keyframe_features_[k], keyframe_features_[k + 1], *dmatches);
     for (auto& m : matches) {
@@ -103,19 +110,20 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     const auto robust = estimateHomographyRobust(matches, options_.robust);
     if (!robust) {
       report.messages.push_back("pair " + std::to_string(k) + ": " + robust.status().toString());
-      break;
+      if (!options_.planes_from_odometry) break;
+      pair.has_homography = false;
+      pairs.push_back(pair);
+      continue;
     }
-    ReferencePair pair;
     pair.H_next_from_current = robust->H;
     for (const int i : robust->inliers) pair.reference_pixels.push_back(matches[i].reference);
-    pair.has_odometry = true;
-    pair.odometry_motion =
-        mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
     pairs.push_back(pair);
   }
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   if (!pairs.empty()) {
-    const auto estimated = estimatePlanesAlongRoute(pairs, camera_, options_.first_plane_distance);
+    const auto estimated = options_.planes_from_odometry
+                               ? estimatePlanesFromOdometry(pairs, camera_)
+                               : estimatePlanesAlongRoute(pairs, camera_, options_.first_plane_distance);
     if (estimated) {
       for (std::size_t k = 0; k < estimated->planes.size(); ++k) planes[k] = estimated->planes[k];
       report.planes = static_cast<int>(estimated->planes.size());

@@ -26,6 +26,7 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
     options.keyframes.angle = readParameter(nh, "keyframe_angle", options.keyframes.angle);
     options.first_plane_distance =
         readParameter(nh, "first_plane_distance", options.first_plane_distance);
+    options.planes_from_odometry = readParameter(nh, "planes_from_odometry", options.planes_from_odometry);
     options.lines.max_angle_deg =
         readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
     options.lines.min_length_px = readParameter(nh, "line_min_length_px", options.lines.min_length_px);
@@ -166,7 +167,7 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
 Status TeachNode::finish(std::string* summary) {
   if (!session_) return Status(StatusCode::kInvalidInput, "no keyframe recorded: nothing to finish");
   finished_ = true;
-  if (!(options_.first_plane_distance > 0.0)) {
+  if (!options_.planes_from_odometry && !(options_.first_plane_distance > 0.0)) {
     *summary = std::to_string(session_->keyframeCount()) +
                " keyframes; no planes (first_plane_distance is 0)";
     publishStatus("finished", *summary);

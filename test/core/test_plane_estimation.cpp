@@ -156,3 +156,64 @@ TEST(PlaneEstimation, PlanesAlongRoute) {
   EXPECT_EQ(estimatePlanesAlongRoute({}, mathCamera(), 8.0).status().code(),
             StatusCode::kTooFewPoints);
 }
+
+// MATH.md §2.4's form without the homology: the plane from a homography and the known metric
+// motion, at any scale and sign of H; a pure rotation is refused.
+TEST(PlaneEstimation, PlaneFromHomographyAndKnownMotion) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const double alpha = 0.6 * u(rng), beta = 0.2 * u(rng);
+    const ScenePlane plane{Eigen::Vector3d(std::cos(beta) * std::sin(alpha), std::sin(beta),
+                                           std::cos(beta) * std::cos(alpha)),
+                           2.0 + 3.0 * (u(rng) + 1.0)};
+    const PlanarPose motion(0.4 * u(rng), 0.5 * u(rng) + 0.6, 0.3 * u(rng));
+    const Eigen::Matrix3d H = -3.7 * planeInducedHomography(mathCamera(), motion, plane);
+    const auto estimated = planeFromHomographyAndMotion(H, mathCamera(), motion);
+    ASSERT_TRUE(estimated.isOk()) << estimated.status().toString();
+    EXPECT_NEAR((estimated->normal - plane.normal).norm(), 0.0, 1e-9) << trial;
+    EXPECT_NEAR(estimated->distance, plane.distance, 1e-9 * plane.distance) << trial;
+  }
+  const PlanarPose rotation(0.0, 0.0, 0.3);
+  const ScenePlane wall{Eigen::Vector3d::UnitZ(), 3.0};
+  EXPECT_EQ(planeFromHomographyAndMotion(planeInducedHomography(mathCamera(), rotation, wall), mathCamera(),
+                                         rotation, 0.1)
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
+}
+
+// Round a corner: two walls, a turn in place between them. Each leg's keyframes get their own
+// wall from the odometry; the keyframes of the turn inherit the transferred plane.
+TEST(PlaneEstimation, PlanesFromOdometryAcrossTwoWalls) {
+  // Leg 1 faces the wall z = 5 (frame of keyframe 0); then the camera turns 90° left in place and
+  // faces the wall x = -4 of frame 0.
+  const ScenePlane wall_a{Eigen::Vector3d::UnitZ(), 5.0};
+  const ScenePlane wall_b{-Eigen::Vector3d::UnitX(), 4.0};
+  std::vector<PlanarPose> cameras = {PlanarPose(0, 0, 0), PlanarPose(0, 0.5, 0), PlanarPose(0, 1.0, 0),
+                                     PlanarPose(0, 1.0, M_PI / 4), PlanarPose(0, 1.0, M_PI / 2),
+                                     PlanarPose(-0.5, 1.0, M_PI / 2), PlanarPose(-1.0, 1.0, M_PI / 2)};
+  std::vector<ReferencePair> pairs;
+  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
+    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
+    const bool second_wall = k >= 3;
+    const auto plane_k = transferPlane(second_wall ? wall_b : wall_a, cameras[k]);
+    ASSERT_TRUE(plane_k.isOk());
+    ReferencePair pair;
+    pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *plane_k);
+    pair.has_odometry = true;
+    pair.odometry_motion = motion;
+    pairs.push_back(pair);
+  }
+  pairs[1].has_homography = false;  // a failed pair: filled by transfer
+  const auto result = estimatePlanesFromOdometry(pairs, mathCamera());
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  ASSERT_EQ(result->planes.size(), cameras.size());
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    // Keyframes 0..3 see wall a (3 is the turn's start, transferred), 4.. see wall b.
+    const auto truth = transferPlane(k <= 3 ? wall_a : wall_b, cameras[k]);
+    ASSERT_TRUE(truth.isOk());
+    EXPECT_NEAR((result->planes[k].normal - truth->normal).norm(), 0.0, 1e-6) << k;
+    EXPECT_NEAR(result->planes[k].distance, truth->distance, 1e-6) << k;
+  }
+}
