@@ -1,6 +1,7 @@
 #include "homography_teach_repeat/ros/controller_node.h"
 
 #include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
 #include <std_msgs/String.h>
 
 #include <cmath>
@@ -66,7 +67,23 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   command_publisher_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 1);
   state_publisher_ = private_nh_.advertise<std_msgs::String>("state", 1, /*latch=*/true);
   publishState(follower_ ? "waiting: no localization yet" : "idle: no route (send a repeat_route goal)");
-  pose_subscriber_ = nh_.subscribe("pose", 5, &ControllerNode::onPose, this);
+  const std::string pose_source = readParameter<std::string>(private_nh, "pose_source", "localization");
+  if (pose_source == "localization") {
+    pose_subscriber_ = nh_.subscribe("pose", 5, &ControllerNode::onPose, this);
+  } else if (pose_source == "odometry") {
+    // The baseline without vision: the raw odometry as the route pose (its frame must be the
+    // route frame, i.e. the run starts where the teach run started).
+    pose_subscriber_ = nh_.subscribe<nav_msgs::Odometry>("odom", 20, [this](const nav_msgs::OdometryConstPtr& odom) {
+      auto pose = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+      pose->header = odom->header;
+      pose->pose = odom->pose;
+      onPose(pose);
+    });
+    ROS_WARN("controller_node: pose_source is odometry: following the route WITHOUT vision (baseline)");
+  } else {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("pose_source") +
+                             "' must be 'localization' or 'odometry', not '" + pose_source + "'");
+  }
   heading_subscriber_ = nh_.subscribe("heading_correction", 5, &ControllerNode::onHeading, this);
   scan_subscriber_ = nh_.subscribe("scan", 1, &ControllerNode::onScan, this);
   diagnostics_.setHardwareID("controller_node");

@@ -12,6 +12,7 @@
 #include "homography_teach_repeat/feature_extractor.h"
 #include "homography_teach_repeat/feature_matcher.h"
 #include "homography_teach_repeat/homography.h"
+#include "homography_teach_repeat/path_deviation.h"
 #include "homography_teach_repeat/planar_world.h"
 #include "homography_teach_repeat/robust_homography.h"
 #include "homography_teach_repeat/waypoint_driver.h"
@@ -230,4 +231,19 @@ TEST(WaypointDriver, DrivesTheLoopAndStops) {
   EXPECT_EQ(stopped.linear, 0.0);
   EXPECT_EQ(stopped.angular, 0.0);
   EXPECT_THROW(WaypointDriver({}, WaypointDriverOptions()), std::invalid_argument);
+}
+
+TEST(PathDeviation, DistanceToThePolylineAndHeadingOfTheNearestKeyframe) {
+  const std::vector<Pose2D> path = {Pose2D(0, 0, 0), Pose2D(2, 0, 0), Pose2D(2, 2, M_PI / 2)};
+  const PathDeviation beside = deviationFromPath(path, Pose2D(1.0, 0.3, 0.1));
+  EXPECT_NEAR(beside.distance, 0.3, 1e-12);
+  EXPECT_NEAR(beside.heading_error, 0.1, 1e-12);
+  const PathDeviation up = deviationFromPath(path, Pose2D(2.2, 1.8, M_PI / 2));
+  EXPECT_NEAR(up.distance, 0.2, 1e-12);
+  EXPECT_EQ(up.nearest_keyframe, 2);
+  EXPECT_NEAR(up.heading_error, 0.0, 1e-12);
+  const PathDeviation beyond = deviationFromPath(path, Pose2D(-1.0, 0.0, 0.0));
+  EXPECT_NEAR(beyond.distance, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(deviationFromPath({}, Pose2D()).distance));
+  EXPECT_TRUE(std::isnan(deviationFromPath(path, Pose2D(NAN, 0, 0)).distance));
 }

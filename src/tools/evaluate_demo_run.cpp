@@ -1,0 +1,150 @@
+// evaluate_demo_run: scores simulated repeat runs against the taught path by ground truth and draws
+// them (scripts/demo).
+//   evaluate_demo_run --world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag]
+//                     [--laps N] [--mode M] --out DIR
+// Writes DIR/metrics.json: {"laps", "mode", "final_pos_err_m", "final_heading_err_deg",
+// "max_pos_err_m", "mean_pos_err_m", "odometry_only_final_pos_err_m", "final_goal_dist_m",
+// "samples", "controller_state"} (errors: distance to the polyline through the taught keyframes,
+// heading against the nearest keyframe; "final" is the last ground-truth sample of the run), and
+// DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <std_msgs/String.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+
+#include "../../bench/eval_cli.h"
+#include "homography_teach_repeat/path_deviation.h"
+#include "homography_teach_repeat/planar_world.h"
+#include "homography_teach_repeat/route.h"
+
+namespace htr = homography_teach_repeat;
+
+namespace {
+
+struct Run {
+  std::vector<htr::Pose2D> truth;
+  std::string last_state;
+};
+
+Run readRun(const std::string& path) {
+  Run run;
+  rosbag::Bag bag(path, rosbag::bagmode::Read);
+  rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
+                                             "/controller_node/state"}));
+  for (const rosbag::MessageInstance& m : view) {
+    if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
+      const auto& q = odom->pose.pose.orientation;
+      run.truth.emplace_back(odom->pose.pose.position.x, odom->pose.pose.position.y,
+                             2.0 * std::atan2(q.z, q.w));
+    } else if (const auto state = m.instantiate<std_msgs::String>()) {
+      run.last_state = state->data;
+    }
+  }
+  return run;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  htr::eval::Arguments args("evaluate_demo_run",
+                            {{"world", ""}, {"route", ""}, {"bag", ""}, {"baseline-bag", ""}, {"laps", "1"},
+                             {"mode", "fast_hd"}, {"out", ""}},
+                            "--world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag] [--laps N] "
+                            "[--mode M] --out DIR");
+  args.parse(argc, argv);
+  for (const char* required : {"world", "route", "bag", "out"}) {
+    if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
+  }
+  try {
+    const auto world = htr::loadPlanarWorld(args.text("world"));
+    if (!world) throw std::runtime_error(world.status().message());
+    const auto route = htr::loadRoute(args.text("route"));
+    if (!route) throw std::runtime_error(route.status().message());
+    std::vector<htr::Pose2D> path;
+    for (const auto& k : route->keyframes) path.push_back(k.pose);
+    const Run run = readRun(args.text("bag"));
+    if (run.truth.empty()) throw std::runtime_error("no ground_truth in " + args.text("bag"));
+    Run baseline;
+    if (!args.text("baseline-bag").empty()) baseline = readRun(args.text("baseline-bag"));
+
+    double max_err = 0.0, sum_err = 0.0;
+    for (const auto& p : run.truth) {
+      const double d = htr::deviationFromPath(path, p).distance;
+      max_err = std::max(max_err, d);
+      sum_err += d;
+    }
+    const htr::PathDeviation final_dev = htr::deviationFromPath(path, run.truth.back());
+    nlohmann::json metrics;
+    metrics["laps"] = args.integer("laps");
+    metrics["mode"] = args.text("mode");
+    metrics["final_pos_err_m"] = final_dev.distance;
+    metrics["final_heading_err_deg"] = std::abs(final_dev.heading_error) * 180.0 / M_PI;
+    metrics["max_pos_err_m"] = max_err;
+    metrics["mean_pos_err_m"] = sum_err / static_cast<double>(run.truth.size());
+    metrics["final_goal_dist_m"] =
+        std::hypot(run.truth.back().x - path.back().x, run.truth.back().y - path.back().y);
+    metrics["samples"] = run.truth.size();
+    metrics["controller_state"] = run.last_state;
+    if (!baseline.truth.empty()) {
+      const htr::Pose2D& b = baseline.truth.back();
+      metrics["odometry_only_final_pos_err_m"] = htr::deviationFromPath(path, b).distance;
+      metrics["odometry_only_final_goal_dist_m"] = std::hypot(b.x - path.back().x, b.y - path.back().y);
+      metrics["odometry_only_controller_state"] = baseline.last_state;
+    } else {
+      metrics["odometry_only_final_pos_err_m"] = nullptr;
+    }
+    const std::filesystem::path out = args.text("out");
+    std::filesystem::create_directories(out);
+    std::ofstream(out / "metrics.json") << metrics.dump(2) << "\n";
+
+    // Top view: 100 px per metre over the walls' bounding box plus a margin.
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const auto& w : world->walls) {
+      for (const auto& p : {w.start, w.end}) {
+        x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+      }
+    }
+    const double scale = 100.0, margin = 0.5;
+    cv::Mat canvas((y1 - y0 + 2 * margin) * scale, (x1 - x0 + 2 * margin) * scale, CV_8UC3, cv::Scalar(255, 255, 255));
+    auto px = [&](double x, double y) {
+      return cv::Point(static_cast<int>((x - x0 + margin) * scale), static_cast<int>((y1 + margin - y) * scale));
+    };
+    for (const auto& w : world->walls) {
+      cv::line(canvas, px(w.start.x(), w.start.y()), px(w.end.x(), w.end.y()), cv::Scalar(0, 0, 0), 4);
+    }
+    auto polyline = [&](const std::vector<htr::Pose2D>& poses, const cv::Scalar& colour, int thickness) {
+      for (std::size_t i = 1; i < poses.size(); ++i) {
+        cv::line(canvas, px(poses[i - 1].x, poses[i - 1].y), px(poses[i].x, poses[i].y), colour, thickness, cv::LINE_AA);
+      }
+    };
+    polyline(baseline.truth, cv::Scalar(0, 0, 220), 1);
+    polyline(path, cv::Scalar(0, 170, 0), 5);
+    polyline(run.truth, cv::Scalar(220, 60, 0), 1);
+    for (const auto& k : path) cv::circle(canvas, px(k.x, k.y), 4, cv::Scalar(0, 120, 0), cv::FILLED);
+    const int line_height = 22;
+    cv::putText(canvas, "taught path (keyframes)", cv::Point(10, line_height), cv::FONT_HERSHEY_SIMPLEX, 0.55,
+                cv::Scalar(0, 150, 0), 1, cv::LINE_AA);
+    cv::putText(canvas, "repeated (" + args.text("mode") + "), ground truth", cv::Point(10, 2 * line_height),
+                cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(220, 60, 0), 1, cv::LINE_AA);
+    if (!baseline.truth.empty()) {
+      cv::putText(canvas, "odometry only, ground truth", cv::Point(10, 3 * line_height), cv::FONT_HERSHEY_SIMPLEX,
+                  0.55, cv::Scalar(0, 0, 220), 1, cv::LINE_AA);
+    }
+    cv::imwrite((out / "trajectory.png").string(), canvas);
+    std::cout << metrics.dump(2) << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "evaluate_demo_run: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
