@@ -98,7 +98,7 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<ControllerConfig>>(reconfigure_mutex_, private_nh_);
   const PotentialFieldParameters& p = options_.controller;
-  ControllerConfig config;
+  ControllerConfig config = ControllerConfig::__getDefault__();  // every field initialised (UBSan)
   config.viscous_friction = p.viscous_friction;
   config.inertia_ratio = p.inertia_ratio;
   config.lever = p.lever;

@@ -107,7 +107,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(reconfigure_mutex_, private_nh_);
-  RepeatConfig config;
+  RepeatConfig config = RepeatConfig::__getDefault__();  // every field initialised (UBSan)
   config.mode = toString(options.mode);
   config.pixel_sigma = options.pose.pixel_sigma_px;
   config.refine = options.pose.refine;
