@@ -37,6 +37,9 @@
 namespace homography_teach_repeat {
 
 enum class RepeatMode { kFastHd, kMu, kClassic };
+
+// Whether a route is a loop: at least 3 keyframes and the last within `max_gap` [m] of the first.
+bool isClosedRoute(const Route& route, double max_gap);
 // "fast_hd", "mu", "classic"; throws std::invalid_argument naming the accepted values.
 RepeatMode repeatModeFromString(const std::string& name);
 std::string toString(RepeatMode mode);
@@ -51,6 +54,9 @@ struct RepeatOptions {
   int min_inliers = 15;          // fewer homography inliers: the reference fails
   int neighbour_search = 2;      // keyframes tried on each side of the tracked one
   int max_degraded_frames = 30;  // consecutive frames on a temporary reference
+  // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
+  // the neighbour search wrap around from the last keyframe to the first (0: never).
+  double closed_route_gap = 1.0;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -93,6 +99,7 @@ class RepeatLocalizer {
   // Non-finite positions are ignored.
   void advanceTrackingTo(const Pose2D& robot);
   int trackedKeyframe() const { return tracked_; }
+  bool closedRoute() const { return closed_; }
   int keyframeCount() const { return static_cast<int>(keyframes_.size()); }
   const Route& route() const { return route_; }
   const PinholeCamera& camera() const { return camera_; }
@@ -120,6 +127,7 @@ class RepeatLocalizer {
   VerticalLineExtractor line_extractor_;
   std::vector<Reference> keyframes_;
   int tracked_ = 0;
+  bool closed_ = false;
   std::optional<Reference> temporary_;
   int temporary_keyframe_ = -1;
   int degraded_frames_ = 0;

@@ -46,6 +46,16 @@ void RepeatOptions::validate() const {
   if (min_inliers < 4) throw std::invalid_argument("min_inliers must be >= 4");
   if (neighbour_search < 0) throw std::invalid_argument("neighbour_search must be >= 0");
   if (max_degraded_frames < 0) throw std::invalid_argument("max_degraded_frames must be >= 0");
+  if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
+    throw std::invalid_argument("closed_route_gap must be finite and >= 0");
+  }
+}
+
+bool isClosedRoute(const Route& route, double max_gap) {
+  if (route.keyframes.size() < 3) return false;
+  const Pose2D& first = route.keyframes.front().pose;
+  const Pose2D& last = route.keyframes.back().pose;
+  return std::hypot(first.x - last.x, first.y - last.y) <= max_gap;
 }
 
 RepeatLocalizer::RepeatLocalizer(const Route& route, const RepeatOptions& options)
@@ -54,7 +64,8 @@ RepeatLocalizer::RepeatLocalizer(const Route& route, const RepeatOptions& option
       camera_(route.info.camera),
       mount_(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw),
       extractor_(FeatureOptions{route.info.feature_type, options.max_features}),
-      line_extractor_(options.lines) {}
+      line_extractor_(options.lines),
+      closed_(options.closed_route_gap > 0.0 && isClosedRoute(route, options.closed_route_gap)) {}
 
 Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
   try {
@@ -175,14 +186,18 @@ void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
 
 void RepeatLocalizer::advanceTrackingTo(const Pose2D& robot) {
   if (!std::isfinite(robot.x) || !std::isfinite(robot.y)) return;
-  // Move on while the robot is closer to the next keyframe than to the tracked one.
-  while (tracked_ + 1 < keyframeCount()) {
-    const Pose2D& here = keyframes_[tracked_].base_pose;
-    const Pose2D& next = keyframes_[tracked_ + 1].base_pose;
+  // Move on while the robot is closer to the next keyframe than to the tracked one (on a closed
+  // route the keyframe after the last is the first; at most one lap per call).
+  const int n = keyframeCount();
+  for (int steps = 0; steps < n; ++steps) {
+    if (!closed_ && tracked_ + 1 >= n) break;
+    const int following = (tracked_ + 1) % n;
+    const Pose2D& here = keyframes_[static_cast<std::size_t>(tracked_)].base_pose;
+    const Pose2D& next = keyframes_[static_cast<std::size_t>(following)].base_pose;
     if (std::hypot(next.x - robot.x, next.y - robot.y) >= std::hypot(here.x - robot.x, here.y - robot.y)) {
       break;
     }
-    ++tracked_;
+    tracked_ = following;
   }
 }
 
@@ -205,10 +220,19 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image) {
     if (!extracted) return extracted.status();
     features = std::move(*extracted);
   }
+  // A closed route (a loop: its last keyframe near its first) wraps around, so that lap 2 goes on
+  // from the last keyframe to the first ones.
+  const int n = keyframeCount();
   std::vector<int> candidates{tracked_};
-  for (int offset = 1; offset <= options_.neighbour_search; ++offset) {
-    if (tracked_ + offset < keyframeCount()) candidates.push_back(tracked_ + offset);
-    if (tracked_ - offset >= 0) candidates.push_back(tracked_ - offset);
+  for (int offset = 1; offset <= options_.neighbour_search && offset < n; ++offset) {
+    if (closed_) {
+      candidates.push_back((tracked_ + offset) % n);
+      const int behind = ((tracked_ - offset) % n + n) % n;
+      if (behind != (tracked_ + offset) % n) candidates.push_back(behind);
+    } else {
+      if (tracked_ + offset < n) candidates.push_back(tracked_ + offset);
+      if (tracked_ - offset >= 0) candidates.push_back(tracked_ - offset);
+    }
   }
   Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
   for (const int k : candidates) {

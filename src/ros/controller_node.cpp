@@ -55,6 +55,7 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   scan_timeout_ = readParameter(private_nh, "scan_timeout", 0.5);
   stop_abort_timeout_ = readParameter(private_nh, "stop_abort_timeout", 10.0);
+  shutdown_when_finished_ = readParameter(private_nh, "shutdown_when_finished", false);
   if (!(rate > 0.0) || !std::isfinite(rate)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0 Hz");
   }
@@ -299,6 +300,11 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
   }
   last_output_ = out;
   diagnostics_.update();
+  if (shutdown_when_finished_ && out.state == FollowState::kFinished) {
+    ROS_INFO("controller_node: route finished, shutting down (shutdown_when_finished)");
+    ros::shutdown();
+    return;
+  }
   if (!action_server_->isActive()) return;
 
   feedback.progress = 100.0 * out.progress;

@@ -44,6 +44,7 @@ RouteDriver::RouteDriver(const ros::NodeHandle& nh, const ros::NodeHandle& priva
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   const double start_delay = readParameter(private_nh, "start_delay", 0.0);
   finish_service_ = readParameter<std::string>(private_nh, "finish_service", "");
+  exit_when_done_ = readParameter(private_nh, "exit_when_done", false);
   if (!(rate > 0.0)) throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0");
   try {
     driver_.emplace(waypoints, options);
@@ -90,6 +91,10 @@ void RouteDriver::onTimer(const ros::TimerEvent&) {
   std_msgs::Bool done;
   done.data = true;
   done_publisher_.publish(done);
+  if (exit_when_done_) {
+    ROS_INFO("route_driver: done, exiting (exit_when_done)");
+    ros::shutdown();
+  }
 }
 
 }  // namespace homography_teach_repeat

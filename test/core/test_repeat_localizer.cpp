@@ -104,6 +104,31 @@ TEST_F(RepeatLocalizerTest, MuModeTrackingFollowsAnExternalPosition) {
   EXPECT_EQ(localizer->trackedKeyframe(), localizer->keyframeCount() - 1);
 }
 
+// A loop (last keyframe near the first): tracking wraps from the last keyframe to the first, so
+// a second lap is localized; an open route never wraps.
+TEST_F(RepeatLocalizerTest, ClosedRouteTrackingWrapsAround) {
+  Route loop = route();
+  const Pose2D first = loop.keyframes.front().pose;
+  loop.keyframes.back().pose = Pose2D(first.x - 0.3, first.y, first.yaw);
+  EXPECT_TRUE(isClosedRoute(loop, 1.0));
+  EXPECT_FALSE(isClosedRoute(route(), 1.0));
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto closed = RepeatLocalizer::create(loop, options);
+  ASSERT_TRUE(closed.isOk()) << closed.status().toString();
+  EXPECT_TRUE(closed->closedRoute());
+  closed->setTrackedKeyframe(closed->keyframeCount() - 1);
+  closed->advanceTrackingTo(first);
+  EXPECT_EQ(closed->trackedKeyframe(), 0);
+  options.closed_route_gap = 0.0;  // disabled
+  auto open = RepeatLocalizer::create(loop, options);
+  ASSERT_TRUE(open.isOk());
+  EXPECT_FALSE(open->closedRoute());
+  open->setTrackedKeyframe(open->keyframeCount() - 1);
+  open->advanceTrackingTo(first);
+  EXPECT_EQ(open->trackedKeyframe(), open->keyframeCount() - 1);
+}
+
 TEST_F(RepeatLocalizerTest, ClassicModeBaseline) {
   RepeatOptions options;
   options.mode = RepeatMode::kClassic;

@@ -66,6 +66,7 @@ class ControllerNode {
   double control_period_ = 0.05;
   double scan_timeout_ = 0.5;
   double stop_abort_timeout_ = 10.0;
+  bool shutdown_when_finished_ = false;  // scripts: exit at the end of the route
   std::string default_directory_;
   RouteFollowerOptions options_;  // start-up / reconfigured values; goals override the sequence
 

@@ -8,7 +8,8 @@
 // Parameters: waypoints (list of [x, y] in the odom frame, required), linear_speed [m/s],
 //             angular_speed [rad/s], heading_gain [1/s], position_tolerance [m],
 //             turn_in_place_angle [rad], control_rate [Hz], finish_service (string, "" = none),
-//             start_delay [s] (wait before driving, e.g. for the teach node to start)
+//             start_delay [s] (wait before driving, e.g. for the teach node to start),
+//             exit_when_done (bool: shut down after the last waypoint, for scripts)
 #pragma once
 
 #include <nav_msgs/Odometry.h>
@@ -37,6 +38,7 @@ class RouteDriver {
   std::string finish_service_;
   ros::Time start_after_;
   bool done_ = false;
+  bool exit_when_done_ = false;
   ros::Subscriber odometry_subscriber_;
   ros::Publisher command_publisher_;
   ros::Publisher done_publisher_;
