@@ -54,6 +54,16 @@ struct RepeatOptions {
   int min_inliers = 15;          // fewer homography inliers: the reference fails
   int neighbour_search = 2;      // keyframes tried on each side of the tracked one
   int max_degraded_frames = 30;  // consecutive frames on a temporary reference
+  // fast_hd: the RMS transfer error [px] of the inliers under the homography the estimated pose
+  // and the keyframe's plane induce; above it the estimate is refused (another wall dominates).
+  double max_plane_residual_px = 3.0;
+  // fast_hd: with at least `min_normal_check_parallax` (|t|/d of the classic decomposition) the
+  // plane in view must have a normal within `max_normal_angle` [rad] of the keyframe plane's.
+  double max_normal_angle = 0.35;
+  double min_normal_check_parallax = 0.03;
+  // fast_hd/classic: each keyframe matches with the features on its plane only: those that move
+  // as the plane predicts to the neighbouring keyframe within this tolerance [px] (0: all).
+  double plane_feature_tolerance_px = 2.0;
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;
@@ -118,6 +128,9 @@ class RepeatLocalizer {
                                            const ImageFeatures& features,
                                            const std::vector<VerticalLine>& lines) const;
   void advanceTracking(const RepeatEstimate& estimate);
+  void restrictToPlaneFeatures();
+  Status checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane, const PointMatches& matches,
+                          const std::vector<int>& inliers) const;
 
   Route route_;
   RepeatOptions options_;

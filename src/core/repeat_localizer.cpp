@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "homography_teach_repeat/fast_hd.h"
+#include "homography_teach_repeat/homography.h"
 #include "homography_teach_repeat/homography_decomposition.h"
 #include "homography_teach_repeat/plane_estimation.h"
 
@@ -46,6 +48,16 @@ void RepeatOptions::validate() const {
   if (min_inliers < 4) throw std::invalid_argument("min_inliers must be >= 4");
   if (neighbour_search < 0) throw std::invalid_argument("neighbour_search must be >= 0");
   if (max_degraded_frames < 0) throw std::invalid_argument("max_degraded_frames must be >= 0");
+  if (!std::isfinite(max_plane_residual_px) || !(max_plane_residual_px > 0.0)) {
+    throw std::invalid_argument("max_plane_residual_px must be > 0");
+  }
+  if (!(max_normal_angle > 0.0 && max_normal_angle <= M_PI) || !std::isfinite(min_normal_check_parallax) ||
+      min_normal_check_parallax < 0.0) {
+    throw std::invalid_argument("max_normal_angle must be in (0, pi], min_normal_check_parallax >= 0");
+  }
+  if (!std::isfinite(plane_feature_tolerance_px) || plane_feature_tolerance_px < 0.0) {
+    throw std::invalid_argument("plane_feature_tolerance_px must be finite and >= 0");
+  }
   if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
     throw std::invalid_argument("closed_route_gap must be finite and >= 0");
   }
@@ -95,14 +107,77 @@ Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const Repe
       }
       localizer.keyframes_.push_back(std::move(reference));
     }
+    if (options.mode != RepeatMode::kMu && options.plane_feature_tolerance_px > 0.0) {
+      localizer.restrictToPlaneFeatures();
+    }
     return localizer;
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
 }
 
+void RepeatLocalizer::restrictToPlaneFeatures() {
+  // Every vertical plane's homography under planar motion has the same form, and a side wall
+  // close to the camera can out-vote the keyframe's wall in the robust fit: Fast-HD with the
+  // keyframe's plane then gives a wrong pose that no residual reveals. So each keyframe keeps only
+  // the features on its plane: those that move as that plane predicts to a neighbouring keyframe
+  // (plane-induced homography of the taught relative pose).
+  const int n = keyframeCount();
+  if (n < 2) return;
+  for (int k = 0; k < n; ++k) {
+    Reference& reference = keyframes_[static_cast<std::size_t>(k)];
+    const int j = k + 1 < n ? k + 1 : k - 1;
+    const Reference& neighbour = keyframes_[static_cast<std::size_t>(j)];
+    const PlanarPose relative = mount_.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
+    const Eigen::Matrix3d H = planeInducedHomography(camera_, relative, *reference.plane);
+    const auto dmatches = matchFeatures(reference.features, neighbour.features, options_.matching);
+    if (!dmatches) continue;
+    std::vector<int> on_plane;
+    for (const cv::DMatch& m : *dmatches) {
+      const cv::Point2f& a = reference.features.keypoints[static_cast<std::size_t>(m.queryIdx)].pt;
+      const cv::Point2f& b = neighbour.features.keypoints[static_cast<std::size_t>(m.trainIdx)].pt;
+      const cv::Point2d ua = camera_.undistortPixel(a), ub = camera_.undistortPixel(b);
+      const PointMatch match{Eigen::Vector2d(ua.x, ua.y), Eigen::Vector2d(ub.x, ub.y)};
+      if (transferError(H, match) < options_.plane_feature_tolerance_px) on_plane.push_back(m.queryIdx);
+    }
+    // Too few: a pure rotation to the neighbour maps every feature alike, or the neighbour shows
+    // little of this plane; keep every feature then.
+    if (static_cast<int>(on_plane.size()) < 2 * options_.min_inliers) continue;
+    ImageFeatures subset;
+    subset.type = reference.features.type;
+    for (const int i : on_plane) {
+      subset.keypoints.push_back(reference.features.keypoints[static_cast<std::size_t>(i)]);
+      subset.descriptors.push_back(reference.features.descriptors.row(i));
+    }
+    reference.features = std::move(subset);
+  }
+}
+
 void RepeatLocalizer::setTrackedKeyframe(int keyframe) {
   tracked_ = std::clamp(keyframe, 0, keyframeCount() - 1);
+}
+
+Status RepeatLocalizer::checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane,
+                                         const PointMatches& matches, const std::vector<int>& inliers) const {
+  const auto solutions = decomposeHomographyClassic(H, camera_);
+  if (!solutions) return Status::ok();  // nothing to check against; the residual test stands
+  std::vector<Eigen::Vector2d> pixels;
+  for (const int i : inliers) pixels.push_back(matches[static_cast<std::size_t>(i)].reference);
+  const auto visible = filterByPositiveDepth(*solutions, camera_, pixels);
+  if (visible.empty()) return Status::ok();
+  double parallax = 0.0, best_cos = -1.0;
+  for (const auto& d : visible) {
+    parallax = std::max(parallax, d.translation_over_distance.norm());
+    best_cos = std::max(best_cos, d.normal.dot(plane.normal));
+  }
+  if (parallax < options_.min_normal_check_parallax) return Status::ok();  // normal not observable
+  const double angle = std::acos(std::clamp(best_cos, -1.0, 1.0));
+  if (angle > options_.max_normal_angle) {
+    return Status(StatusCode::kNoConsensus,
+                  "the dominant plane in view is not the keyframe's (normal " +
+                      std::to_string(angle * 180.0 / M_PI) + " deg away): another wall in view?");
+  }
+  return Status::ok();
 }
 
 Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& reference, int keyframe,
@@ -141,6 +216,28 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
     estimate.inliers = static_cast<int>(pose->inliers.size());
     for (const int i : pose->inliers) estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(i)]);
     camera_relative = pose->pose;
+    // The pose must explain the matches through the keyframe's plane. Any homography gives a
+    // Fast-HD pose, so a view dominated by another wall (a corner) gives a wrong pose with a
+    // small DLT residual; the plane-induced homography of that pose does not fit it.
+    const Eigen::Matrix3d H_model = planeInducedHomography(camera_, camera_relative, *reference.plane);
+    double sum = 0.0;
+    for (const int i : pose->inliers) {
+      const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);
+      sum += e * e;
+    }
+    const double rms = std::sqrt(sum / std::max<std::size_t>(1, pose->inliers.size()));
+    if (!(rms <= options_.max_plane_residual_px)) {
+      return Status(StatusCode::kNoConsensus,
+                    "the matches do not fit the keyframe's plane (RMS " + std::to_string(rms) +
+                        " px > max_plane_residual " + std::to_string(options_.max_plane_residual_px) +
+                        " px): another wall in view?");
+    }
+    // Every vertical plane's homography under planar motion has the same form, so the residual
+    // above cannot tell the keyframe's wall from a side wall. The plane normal can: with enough
+    // parallax the classic decomposition's normals (positive depth) must include one near the
+    // keyframe plane's normal (MATH.md §1.8: the other solution is the spurious one).
+    const Status same_wall = checkPlaneNormal(pose->H, *reference.plane, matches, pose->inliers);
+    if (!same_wall.isOk()) return same_wall;
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(camera_relative);
     estimate.covariance =
         rotateCovariance(J * pose->covariance * J.transpose(), reference.base_pose.yaw);

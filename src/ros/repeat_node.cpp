@@ -27,6 +27,8 @@ RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
     options.min_inliers = readParameter(nh, "min_inliers", options.min_inliers);
     options.neighbour_search = readParameter(nh, "neighbour_search", options.neighbour_search);
     options.max_degraded_frames = readParameter(nh, "max_degraded_frames", options.max_degraded_frames);
+    options.max_plane_residual_px = readParameter(nh, "max_plane_residual", options.max_plane_residual_px);
+    options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
     options.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
