@@ -5,8 +5,13 @@
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "../core/synthetic_route.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "homography_teach_repeat/ros/controller_node.h"
+#include "homography_teach_repeat/ros/repeat_node.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;
@@ -63,6 +68,48 @@ TEST(RepeatNode, BadInputIsReportedAndSurvived) {
   camera.publish(*good, info(good->header, c.fx));
   ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() > before && poses > 0; }, 20.0));
   EXPECT_TRUE(headings.back().ok) << headings.back().status;
+}
+
+namespace {
+
+// Constructs the node class in namespace `ns` and expects it to refuse to start with a message
+// containing `fragment` (the executables print it and exit with status 1).
+template <class Node>
+void expectStartFails(const std::string& ns, const std::string& fragment) {
+  try {
+    Node node{ros::NodeHandle(ns), ros::NodeHandle(ns)};
+    FAIL() << "started in " << ns << " although it should fail with '" << fragment << "'";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+
+// A missing, corrupt or unknown-version route, or a bad parameter: repeat_node and controller_node
+// refuse to start, naming the file or the parameter.
+TEST(RepeatNode, RouteProblemsStopTheStartNamingTheFile) {
+  ros::NodeHandle nh("~");
+  expectStartFails<RepeatNode>("~no_route", "route_directory' is not set");
+  nh.setParam("missing/route_directory", "/nonexistent/route");
+  expectStartFails<RepeatNode>("~missing", "/nonexistent/route");
+  expectStartFails<ControllerNode>("~missing", "/nonexistent/route");
+
+  const std::filesystem::path corrupt = std::filesystem::temp_directory_path() / "htr_corrupt_route";
+  std::filesystem::create_directories(corrupt);
+  std::ofstream((corrupt / "route.yaml").string()) << "format_version: 1\nkeyframes: [ {index: 0, pose: {x: 1";
+  nh.setParam("corrupt/route_directory", corrupt.string());
+  expectStartFails<RepeatNode>("~corrupt", "route.yaml");
+  std::ofstream((corrupt / "route.yaml").string()) << "format_version: 99\n";
+  expectStartFails<RepeatNode>("~corrupt", "format_version");
+  std::filesystem::remove_all(corrupt);
+
+  nh.setParam("bad_mode/route_directory", "/tmp/htr_repeat_node_test_route");
+  nh.setParam("bad_mode/mode", "teleport");
+  expectStartFails<RepeatNode>("~bad_mode", "fast_hd");
+  nh.setParam("bad_start/route_directory", "/tmp/htr_repeat_node_test_route");
+  nh.setParam("bad_start/start_keyframe", 99);
+  expectStartFails<RepeatNode>("~bad_start", "start_keyframe");
 }
 
 int main(int argc, char** argv) {
