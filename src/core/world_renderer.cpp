@@ -9,16 +9,16 @@
 namespace homography_teach_repeat {
 namespace {
 
-// Bilinear sample of a BGR8 texture tiled in both directions.
+// Bilinear sample of a BGR8 texture tiled in both directions. The integer cell is wrapped with
+// integer arithmetic: fmod of a tiny negative coordinate plus the width rounds to the width itself,
+// one past the last column (found by AddressSanitizer).
 cv::Vec3f sampleTiled(const cv::Mat& texture, double u, double v) {
   const int w = texture.cols, h = texture.rows;
-  u = std::fmod(u, w);
-  if (u < 0) u += w;
-  v = std::fmod(v, h);
-  if (v < 0) v += h;
-  const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+  const double fu = std::floor(u), fv = std::floor(v);
+  const float a = static_cast<float>(u - fu), b = static_cast<float>(v - fv);
+  const long iu = static_cast<long>(fu), iv = static_cast<long>(fv);
+  const int u0 = static_cast<int>(((iu % w) + w) % w), v0 = static_cast<int>(((iv % h) + h) % h);
   const int u1 = (u0 + 1) % w, v1 = (v0 + 1) % h;
-  const float a = static_cast<float>(u - u0), b = static_cast<float>(v - v0);
   const cv::Vec3b& p00 = texture.at<cv::Vec3b>(v0, u0);
   const cv::Vec3b& p01 = texture.at<cv::Vec3b>(v0, u1);
   const cv::Vec3b& p10 = texture.at<cv::Vec3b>(v1, u0);
