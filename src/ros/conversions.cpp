@@ -86,6 +86,13 @@ HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_
   return msg;
 }
 
+geometry_msgs::Quaternion yawQuaternion(double yaw) {
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(yaw / 2.0);
+  q.w = std::cos(yaw / 2.0);
+  return q;
+}
+
 Expected<Pose2D> toPose2D(const geometry_msgs::Pose& pose) {
   const auto& p = pose.position;
   const auto& q = pose.orientation;

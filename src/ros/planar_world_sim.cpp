@@ -14,17 +14,11 @@
 #include <stdexcept>
 #include <vector>
 
+#include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
 
 namespace homography_teach_repeat {
 namespace {
-
-geometry_msgs::Quaternion yawQuaternion(double yaw) {
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(yaw / 2.0);
-  q.w = std::cos(yaw / 2.0);
-  return q;
-}
 
 nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, const std::string& frame,
                                    const std::string& child, double v, double w) {
@@ -34,7 +28,7 @@ nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, c
   m.child_frame_id = child;
   m.pose.pose.position.x = pose.x;
   m.pose.pose.position.y = pose.y;
-  m.pose.pose.orientation = yawQuaternion(pose.yaw);
+  m.pose.pose.orientation = ros_conversions::yawQuaternion(pose.yaw);
   m.twist.twist.linear.x = v;
   m.twist.twist.angular.z = w;
   return m;
@@ -49,7 +43,7 @@ geometry_msgs::TransformStamped transformMessage(const Pose2D& pose, double z, c
   t.transform.translation.x = pose.x;
   t.transform.translation.y = pose.y;
   t.transform.translation.z = z;
-  t.transform.rotation = yawQuaternion(pose.yaw);
+  t.transform.rotation = ros_conversions::yawQuaternion(pose.yaw);
   return t;
 }
 

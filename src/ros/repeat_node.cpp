@@ -36,6 +36,16 @@ RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
   return options;
 }
 
+// The run-time tunables of RepeatOptions as dynamic_reconfigure reports them.
+void writeTunables(const RepeatOptions& options, RepeatConfig& config) {
+  config.mode = toString(options.mode);
+  config.pixel_sigma = options.pose.pixel_sigma_px;
+  config.refine = options.pose.refine;
+  config.min_inliers = options.min_inliers;
+  config.neighbour_search = options.neighbour_search;
+  config.max_degraded_frames = options.max_degraded_frames;
+}
+
 HeadingAidedOdometryOptions readHeadingAidedOptions(const ros::NodeHandle& nh) {
   HeadingAidedOdometryOptions o;
   try {
@@ -48,13 +58,6 @@ HeadingAidedOdometryOptions readHeadingAidedOptions(const ros::NodeHandle& nh) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
   }
   return o;
-}
-
-geometry_msgs::Quaternion yawQuaternion(double yaw) {
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(yaw / 2.0);
-  q.w = std::cos(yaw / 2.0);
-  return q;
 }
 
 }  // namespace
@@ -110,12 +113,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(reconfigure_mutex_, private_nh_);
   RepeatConfig config = RepeatConfig::__getDefault__();  // every field initialised (UBSan)
-  config.mode = toString(options.mode);
-  config.pixel_sigma = options.pose.pixel_sigma_px;
-  config.refine = options.pose.refine;
-  config.min_inliers = options.min_inliers;
-  config.neighbour_search = options.neighbour_search;
-  config.max_degraded_frames = options.max_degraded_frames;
+  writeTunables(options, config);
   reconfigure_server_->updateConfig(config);
   reconfigure_server_->setCallback(
       [this](RepeatConfig& c, uint32_t level) { onReconfigure(c, level); });
@@ -130,12 +128,7 @@ void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
     ROS_ERROR("repeat_node: reconfiguration refused: %s; keeping mode %s", why.c_str(),
               toString(options_.mode).c_str());
     last_status_ = Status(StatusCode::kInvalidInput, "reconfiguration refused: " + why);
-    config.mode = toString(options_.mode);
-    config.pixel_sigma = options_.pose.pixel_sigma_px;
-    config.refine = options_.pose.refine;
-    config.min_inliers = options_.min_inliers;
-    config.neighbour_search = options_.neighbour_search;
-    config.max_degraded_frames = options_.max_degraded_frames;
+    writeTunables(options_, config);
   };
   try {
     options.mode = repeatModeFromString(config.mode);
@@ -289,7 +282,7 @@ void RepeatNode::publishPose(const std_msgs::Header& image_header, const Pose2D&
   pose.header.frame_id = map_frame_;
   pose.pose.pose.position.x = base_pose.x;
   pose.pose.pose.position.y = base_pose.y;
-  pose.pose.pose.orientation = yawQuaternion(base_pose.yaw);
+  pose.pose.pose.orientation = ros_conversions::yawQuaternion(base_pose.yaw);
   auto& c = pose.pose.covariance;  // row-major 6x6 (x, y, z, roll, pitch, yaw)
   c.fill(0.0);
   const int index[3] = {0, 1, 5};
@@ -310,7 +303,7 @@ void RepeatNode::publishMapToOdom(const ros::Time& stamp, const Pose2D& map_to_o
   t.child_frame_id = odom_frame_;
   t.transform.translation.x = map_to_odom.x;
   t.transform.translation.y = map_to_odom.y;
-  t.transform.rotation = yawQuaternion(map_to_odom.yaw);
+  t.transform.rotation = ros_conversions::yawQuaternion(map_to_odom.yaw);
   tf_broadcaster_.sendTransform(t);
 }
 
@@ -370,7 +363,7 @@ void RepeatNode::publishMarkers(int current_keyframe) {
     arrow.type = visualization_msgs::Marker::ARROW;
     arrow.pose.position.x = keyframe.pose.x;
     arrow.pose.position.y = keyframe.pose.y;
-    arrow.pose.orientation = yawQuaternion(keyframe.pose.yaw);
+    arrow.pose.orientation = ros_conversions::yawQuaternion(keyframe.pose.yaw);
     arrow.scale.x = 0.4;
     arrow.scale.y = arrow.scale.z = 0.06;
     const bool current = static_cast<int>(k) == current_keyframe;

@@ -17,21 +17,15 @@
 #include "homography_teach_repeat/robust_homography.h"
 #include "homography_teach_repeat/waypoint_driver.h"
 #include "homography_teach_repeat/world_renderer.h"
+#include "synthetic_route.h"
 #include "test_images.h"
 
 using namespace homography_teach_repeat;
 
 namespace {
 
-PinholeCamera simCamera() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return PinholeCamera(c);
-}
+// The 640x480, f = 500 px camera of the synthetic route tests.
+PinholeCamera simCamera() { return PinholeCamera(test_support::syntheticCalibration()); }
 
 cv::Mat colourTexture(int seed) {
   cv::Mat grey = test_support::makeTexture(400, 300, seed);

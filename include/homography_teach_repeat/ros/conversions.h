@@ -34,6 +34,9 @@ Expected<cv::Mat> toCvImage(const sensor_msgs::ImageConstPtr& image);
 // quaternion that is not (close to) unit.
 Expected<Pose2D> toPose2D(const geometry_msgs::Pose& pose);
 
+// The quaternion of a rotation by `yaw` [rad] about z (REP-103 planar poses).
+geometry_msgs::Quaternion yawQuaternion(double yaw);
+
 // geometry_msgs transform -> Eigen isometry.
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform);
 
