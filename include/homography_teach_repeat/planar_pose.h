@@ -20,6 +20,7 @@
 #include <Eigen/Geometry>
 
 #include <string>
+#include <vector>
 
 namespace homography_teach_repeat {
 
@@ -42,6 +43,11 @@ struct Pose2D {
   Eigen::Vector2d transformPoint(const Eigen::Vector2d& point) const;
   bool isFinite() const;
 };
+
+// Whether a sequence of poses is a loop: at least 3 poses and the last within `max_gap` [m] of the
+// first (max_gap <= 0: never).
+bool isClosedLoop(const std::vector<Pose2D>& poses, double max_gap);
+
 
 // Camera-convention planar pose of MATH.md §1.1 (x right [m], z forward [m], theta = θ12 [rad]).
 struct PlanarPose {

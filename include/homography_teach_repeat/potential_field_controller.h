@@ -59,6 +59,11 @@ class PotentialFieldController {
   Expected<VelocityCommand> step(double goal_distance, double goal_bearing,
                                  const std::vector<Eigen::Vector2d>& obstacles, double dt);
 
+  // Drives towards the target velocities (v, w) within the base's acceleration and velocity
+  // limits over `dt` (the final approach and heading alignment of route_follower.h); the state
+  // stays continuous with step(). kInvalidInput (state reset to rest) on a non-finite input.
+  Expected<VelocityCommand> track(double linear, double angular, double dt);
+
   // Back to rest (v = w = 0), e.g. when localization is lost.
   void reset() { state_ = VelocityCommand(); }
   const VelocityCommand& state() const { return state_; }
@@ -66,6 +71,8 @@ class PotentialFieldController {
   void setParameters(const PotentialFieldParameters& parameters);  // validates
 
  private:
+  VelocityCommand limit(double linear, double angular, double dt);
+
   PotentialFieldParameters parameters_;
   VelocityCommand state_;
 };

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,26 @@ struct RouteFollowerOptions {
   // attraction has no orientation term, so requiring it for the goal would make a robot that
   // arrives at a corner from the previous side circle there. Off by default.
   bool require_goal_heading = false;
+  // Closed routes (at least 3 keyframes, the last within closed_route_gap [m] of the first,
+  // end_index the last): every lap runs round all keyframes from start_index to the keyframe
+  // before it, where the robot started, so each lap (and the run) ends where it began and the
+  // corner between the route's last and first keyframes is followed like any other. Not for
+  // start_index 0 (the route's own last keyframe ends it).
+  bool return_to_start = true;
+  double closed_route_gap = 1.0;
+  // The end of the run. Paper 002's robot stops once within ε of the last keyframe; here the last
+  // goal is approached within final_approach_distance [m] with a go-to-point law (turn in place
+  // while the goal's bearing exceeds final_turn_angle [rad]; otherwise v = final_approach_gain ·
+  // distance, w = final_turn_gain · bearing) until it is within final_goal_tolerance [m], then
+  // (align_final_heading) the robot turns in place to the keyframe's heading within
+  // final_heading_tolerance [rad]: the pose the route ends with, not just a point near it.
+  double final_approach_distance = 1.0;
+  double final_goal_tolerance = 0.05;
+  double final_turn_angle = 0.5;
+  double final_approach_gain = 0.5;  // [1/s]
+  double final_turn_gain = 1.5;      // [1/s]
+  bool align_final_heading = true;
+  double final_heading_tolerance = 0.02;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -62,20 +83,27 @@ class RouteFollower {
 
   const PotentialFieldController& controller() const { return controller_; }
   void setControllerParameters(const PotentialFieldParameters& parameters);
-  // Run-time tuning (dynamic_reconfigure): the controller parameters, pose_timeout and
-  // require_goal_heading of `options`; the goal sequence (start/end index, laps) stays. Throws
+  // Run-time tuning (dynamic_reconfigure): the controller parameters, pose_timeout,
+  // require_goal_heading and the final approach of `options`; the goal sequence (start/end index,
+  // laps, return_to_start) stays. Throws
   // std::invalid_argument naming the bad field and then changes nothing.
   void retune(const RouteFollowerOptions& options);
   const RouteFollowerOptions& options() const { return options_; }
 
  private:
   FollowOutput stop(FollowState state, const std::string& reason);
+  FollowOutput following(const VelocityCommand& command, double distance) const;
+  // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
+  std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
+  int lapOf(std::size_t position) const;
 
   std::vector<Pose2D> goals_;
   RouteFollowerOptions options_;
   PotentialFieldController controller_;
   std::vector<int> sequence_;  // goal keyframe indices for the whole run (laps unrolled)
+  std::size_t goals_per_lap_ = 1;
   std::size_t next_ = 0;       // position in sequence_
+  bool at_final_position_ = false;  // the last goal's position is reached: aligning the heading
   bool has_fix_ = false;
   bool lost_ = false;
   bool invalid_ = false;

@@ -144,4 +144,9 @@ Eigen::Matrix3d CameraMount::cameraToBaseJacobian(const PlanarPose& camera_relat
   return jacobian;
 }
 
+bool isClosedLoop(const std::vector<Pose2D>& poses, double max_gap) {
+  if (!(max_gap > 0.0) || poses.size() < 3) return false;
+  return std::hypot(poses.front().x - poses.back().x, poses.front().y - poses.back().y) <= max_gap;
+}
+
 }  // namespace homography_teach_repeat

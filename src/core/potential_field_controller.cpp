@@ -94,9 +94,23 @@ Expected<VelocityCommand> PotentialFieldController::step(
   double v = exactStep(state_.linear, two_b, magnitude * std::cos(psi), dt);
   double w = exactStep(state_.angular, two_b * p.inertia_ratio,
                        magnitude * p.inertia_ratio * p.lever * std::sin(psi), dt);
+  return limit(v, w, dt);
+}
+
+Expected<VelocityCommand> PotentialFieldController::track(double linear, double angular, double dt) {
+  if (!std::isfinite(linear) || !std::isfinite(angular) || !std::isfinite(dt) || !(dt > 0.0)) {
+    reset();
+    return Status(StatusCode::kInvalidInput,
+                  "velocity target is not finite (or dt <= 0): commanding zero velocity");
+  }
+  return limit(linear, angular, dt);
+}
+
+VelocityCommand PotentialFieldController::limit(double linear, double angular, double dt) {
+  const PotentialFieldParameters& p = parameters_;
   // Limits of the base: acceleration, then velocity.
-  v = clampChange(v, state_.linear, p.max_linear_acceleration, dt);
-  w = clampChange(w, state_.angular, p.max_angular_acceleration, dt);
+  double v = clampChange(linear, state_.linear, p.max_linear_acceleration, dt);
+  double w = clampChange(angular, state_.angular, p.max_angular_acceleration, dt);
   v = std::clamp(v, p.allow_reverse ? -p.max_linear_velocity : 0.0, p.max_linear_velocity);
   w = std::clamp(w, -p.max_angular_velocity, p.max_angular_velocity);
   state_.linear = v;

@@ -64,10 +64,9 @@ void RepeatOptions::validate() const {
 }
 
 bool isClosedRoute(const Route& route, double max_gap) {
-  if (route.keyframes.size() < 3) return false;
-  const Pose2D& first = route.keyframes.front().pose;
-  const Pose2D& last = route.keyframes.back().pose;
-  return std::hypot(first.x - last.x, first.y - last.y) <= max_gap;
+  std::vector<Pose2D> poses;
+  for (const auto& k : route.keyframes) poses.push_back(k.pose);
+  return isClosedLoop(poses, max_gap);
 }
 
 RepeatLocalizer::RepeatLocalizer(const Route& route, const RepeatOptions& options)
@@ -77,7 +76,7 @@ RepeatLocalizer::RepeatLocalizer(const Route& route, const RepeatOptions& option
       mount_(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw),
       extractor_(FeatureOptions{route.info.feature_type, options.max_features}),
       line_extractor_(options.lines),
-      closed_(options.closed_route_gap > 0.0 && isClosedRoute(route, options.closed_route_gap)) {}
+      closed_(isClosedRoute(route, options.closed_route_gap)) {}
 
 Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
   try {

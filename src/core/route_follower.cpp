@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/route_follower.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,6 +23,22 @@ void RouteFollowerOptions::validate() const {
   }
   if (start_index < 0) throw std::invalid_argument("start_index must be >= 0");
   if (laps < 1) throw std::invalid_argument("laps must be >= 1");
+  auto positive = [](double value, const char* name) {
+    if (!std::isfinite(value) || !(value > 0.0)) {
+      throw std::invalid_argument(std::string(name) + " must be finite and > 0");
+    }
+  };
+  if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
+    throw std::invalid_argument("closed_route_gap must be finite and >= 0");
+  }
+  positive(final_approach_distance, "final_approach_distance");
+  positive(final_goal_tolerance, "final_goal_tolerance");
+  positive(final_approach_gain, "final_approach_gain");
+  positive(final_turn_gain, "final_turn_gain");
+  positive(final_heading_tolerance, "final_heading_tolerance");
+  if (!(final_turn_angle > 0.0 && final_turn_angle <= M_PI)) {
+    throw std::invalid_argument("final_turn_angle must be in (0, pi]");
+  }
 }
 
 RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options)
@@ -34,9 +51,25 @@ RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptio
     throw std::invalid_argument("start_index/end_index outside the route's " +
                                 std::to_string(goals_.size()) + " keyframes");
   }
-  for (int lap = 0; lap < options_.laps; ++lap) {
-    for (int k = options_.start_index; k <= last; ++k) sequence_.push_back(k);
+  const int count = static_cast<int>(goals_.size());
+  if (options_.return_to_start && options_.start_index > 0 && last == count - 1 &&
+      isClosedLoop(goals_, options_.closed_route_gap)) {
+    // A loop: every lap runs through all keyframes from start_index round to the keyframe the
+    // robot started at (start_index − 1), including the keyframe between the last and the first.
+    for (int lap = 0; lap < options_.laps; ++lap) {
+      for (int i = 0; i < count; ++i) sequence_.push_back((options_.start_index + i) % count);
+    }
+    goals_per_lap_ = static_cast<std::size_t>(count);
+  } else {
+    for (int lap = 0; lap < options_.laps; ++lap) {
+      for (int k = options_.start_index; k <= last; ++k) sequence_.push_back(k);
+    }
+    goals_per_lap_ = static_cast<std::size_t>(last - options_.start_index + 1);
   }
+}
+
+int RouteFollower::lapOf(std::size_t position) const {
+  return static_cast<int>(std::min(position / goals_per_lap_, static_cast<std::size_t>(options_.laps - 1)));
 }
 
 void RouteFollower::setControllerParameters(const PotentialFieldParameters& parameters) {
@@ -49,6 +82,13 @@ void RouteFollower::retune(const RouteFollowerOptions& options) {
   setControllerParameters(options.controller);
   options_.pose_timeout = options.pose_timeout;
   options_.require_goal_heading = options.require_goal_heading;
+  options_.final_approach_distance = options.final_approach_distance;
+  options_.final_goal_tolerance = options.final_goal_tolerance;
+  options_.final_turn_angle = options.final_turn_angle;
+  options_.final_approach_gain = options.final_approach_gain;
+  options_.final_turn_gain = options.final_turn_gain;
+  options_.align_final_heading = options.align_final_heading;
+  options_.final_heading_tolerance = options.final_heading_tolerance;
 }
 
 Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_offset) {
@@ -77,8 +117,7 @@ FollowOutput RouteFollower::stop(FollowState state, const std::string& reason) {
   out.state = state;
   out.reason = reason;
   out.goal_index = next_ < sequence_.size() ? sequence_[next_] : -1;
-  out.lap = static_cast<int>(std::min(next_, sequence_.size() - 1) /
-                             (sequence_.size() / static_cast<std::size_t>(options_.laps)));
+  out.lap = lapOf(std::min(next_, sequence_.size() - 1));
   out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
   return out;
 }
@@ -93,29 +132,58 @@ FollowOutput RouteFollower::update(double now, double dt,
     return stop(FollowState::kStopped, "localization older than pose_timeout (" +
                                            std::to_string(now - stamp_) + " s)");
   }
-  // Goals reached (distance < ε; and heading within δ when required, paper 002 Fig. 8) are passed.
+  // Goals reached (distance < ε; and heading within δ when required, paper 002 Fig. 8) are passed;
+  // the last one has its own test (finalApproach).
   auto reached = [&](const Pose2D& goal) {
     return options_.require_goal_heading
                ? goalReached(pose_, goal, options_.controller)
                : std::hypot(goal.x - pose_.x, goal.y - pose_.y) < options_.controller.goal_tolerance;
   };
-  while (next_ < sequence_.size() && reached(goals_[static_cast<std::size_t>(sequence_[next_])])) {
+  while (next_ + 1 < sequence_.size() && reached(goals_[static_cast<std::size_t>(sequence_[next_])])) {
     ++next_;
   }
-  if (next_ >= sequence_.size()) return stop(FollowState::kFinished, "end of the route");
   const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
   const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
+  if (next_ + 1 == sequence_.size() && (at_final_position_ || distance < options_.final_approach_distance)) {
+    const auto command = finalApproach(goal, distance, dt);
+    if (!command) {
+      next_ = sequence_.size();
+      return stop(FollowState::kFinished, "end of the route");
+    }
+    if (!*command) return stop(FollowState::kStopped, command->status().message());
+    return following(**command, distance);
+  }
   const auto command =
       controller_.step(distance, goalBearing(pose_, goal, heading_offset_), obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
+  return following(*command, distance);
+}
+
+FollowOutput RouteFollower::following(const VelocityCommand& command, double distance) const {
   FollowOutput out;
-  out.command = *command;
+  out.command = command;
   out.state = FollowState::kFollowing;
   out.goal_index = sequence_[next_];
-  out.lap = static_cast<int>(next_ / (sequence_.size() / static_cast<std::size_t>(options_.laps)));
+  out.lap = lapOf(next_);
   out.distance_to_goal = distance;
   out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
   return out;
+}
+
+std::optional<Expected<VelocityCommand>> RouteFollower::finalApproach(const Pose2D& goal, double distance,
+                                                                      double dt) {
+  const RouteFollowerOptions& o = options_;
+  // Hysteresis: a new fix a little off the point does not restart the approach.
+  if (distance < o.final_goal_tolerance) at_final_position_ = true;
+  if (distance > 2.0 * o.final_goal_tolerance) at_final_position_ = false;
+  if (at_final_position_) {
+    const double heading_error = wrapToPi(goal.yaw - pose_.yaw - heading_offset_);
+    if (!o.align_final_heading || std::abs(heading_error) < o.final_heading_tolerance) return std::nullopt;
+    return controller_.track(0.0, o.final_turn_gain * heading_error, dt);
+  }
+  const double bearing = goalBearing(pose_, goal, heading_offset_);
+  if (std::abs(bearing) > o.final_turn_angle) return controller_.track(0.0, o.final_turn_gain * bearing, dt);
+  return controller_.track(o.final_approach_gain * distance * std::cos(bearing), o.final_turn_gain * bearing, dt);
 }
 
 }  // namespace homography_teach_repeat

@@ -38,6 +38,15 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.end_index = readParameter(nh, "end_index", o.end_index);
     o.laps = readParameter(nh, "laps", o.laps);
     o.require_goal_heading = readParameter(nh, "require_goal_heading", o.require_goal_heading);
+    o.return_to_start = readParameter(nh, "return_to_start", o.return_to_start);
+    o.closed_route_gap = readParameter(nh, "closed_route_gap", o.closed_route_gap);
+    o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
+    o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);
+    o.final_turn_angle = readParameter(nh, "final_turn_angle", o.final_turn_angle);
+    o.final_approach_gain = readParameter(nh, "final_approach_gain", o.final_approach_gain);
+    o.final_turn_gain = readParameter(nh, "final_turn_gain", o.final_turn_gain);
+    o.align_final_heading = readParameter(nh, "align_final_heading", o.align_final_heading);
+    o.final_heading_tolerance = readParameter(nh, "final_heading_tolerance", o.final_heading_tolerance);
     o.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());

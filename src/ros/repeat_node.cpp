@@ -60,6 +60,22 @@ HeadingAidedOdometryOptions readHeadingAidedOptions(const ros::NodeHandle& nh) {
   return o;
 }
 
+OdometryGateOptions readGateOptions(const ros::NodeHandle& nh) {
+  OdometryGateOptions o;
+  try {
+    o.position_tolerance = readParameter(nh, "gate_position_tolerance", o.position_tolerance);
+    o.heading_tolerance = readParameter(nh, "gate_heading_tolerance", o.heading_tolerance);
+    o.drift_fraction = readParameter(nh, "gate_drift_fraction", o.drift_fraction);
+    o.heading_drift_per_metre = readParameter(nh, "gate_heading_drift_per_metre", o.heading_drift_per_metre);
+    o.rotation_drift_fraction = readParameter(nh, "gate_rotation_drift_fraction", o.rotation_drift_fraction);
+    o.switch_after = readParameter(nh, "gate_switch_after", o.switch_after);
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
+  }
+  return o;
+}
+
 }  // namespace
 
 RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
@@ -77,6 +93,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   mode_ = options.mode;
   options_ = options;
   heading_aided_ = HeadingAidedOdometry(readHeadingAidedOptions(private_nh));
+  if (readParameter(private_nh, "odometry_gate", true)) odometry_gate_.emplace(readGateOptions(private_nh));
   if (!(unobserved_variance_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("unobserved_variance") +
                              "' must be > 0");
@@ -207,6 +224,19 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   const auto estimate = initialized_ ? localizer_->localize(*cv_image)
                                      : localizer_->initializeGlobally(*cv_image);
   if (!estimate) return fail(estimate.status());
+  if (estimate->has_pose && odometry_gate_) {
+    const auto odom = odometry_.poseAt(image->header.stamp.toSec());
+    if (odom) {
+      const Status gated = odometry_gate_->check(estimate->base_pose, *odom);
+      if (!gated.isOk()) {
+        ++gated_;
+        return fail(gated);
+      }
+    } else {
+      ROS_WARN_THROTTLE(10.0, "repeat_node: no odometry at the image stamp, the pose is not checked "
+                              "against odometry (odometry_gate): %s", odom.status().toString().c_str());
+    }
+  }
   initialized_ = true;
   last_status_ = Status::ok();
   last_inliers_ = estimate->inliers;
@@ -415,6 +445,7 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("frames", frames_);
   stat.add("failures", failures_);
   stat.add("degraded frames", degraded_);
+  stat.add("poses refused by the odometry gate", gated_);
   stat.add("last inliers", last_inliers_);
   stat.add("reference keyframe", last_keyframe_);
   stat.add("tracked keyframe", localizer_->trackedKeyframe());

@@ -3,9 +3,11 @@
 //   evaluate_demo_run --world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag]
 //                     [--laps N] [--mode M] --out DIR
 // Writes DIR/metrics.json: {"laps", "mode", "final_pos_err_m", "final_heading_err_deg",
-// "max_pos_err_m", "mean_pos_err_m", "odometry_only_final_pos_err_m", "final_goal_dist_m",
-// "samples", "controller_state"} (errors: distance to the polyline through the taught keyframes,
-// heading against the nearest keyframe; "final" is the last ground-truth sample of the run), and
+// "max_pos_err_m", "mean_pos_err_m", "final_path_err_m", "odometry_only_final_pos_err_m",
+// "odometry_only_final_heading_err_deg", "odometry_only_max_pos_err_m", "samples",
+// "controller_state"}. "final": the last ground-truth sample of the run against the pose the run
+// must end at (a loop: its first keyframe, where the robot started; an open route: its last);
+// max/mean/final_path: distance to the polyline through the taught keyframes. And
 // DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -83,22 +85,29 @@ int main(int argc, char** argv) {
       max_err = std::max(max_err, d);
       sum_err += d;
     }
-    const htr::PathDeviation final_dev = htr::deviationFromPath(path, run.truth.back());
+    // Where the run must end (controller_node with start_index 1 and return_to_start): a loop ends
+    // at its first keyframe, where the robot started; an open route at its last.
+    const htr::Pose2D end = htr::isClosedLoop(path, 1.0) ? path.front() : path.back();
+    auto endError = [&](const htr::Pose2D& p) { return std::hypot(p.x - end.x, p.y - end.y); };
     nlohmann::json metrics;
     metrics["laps"] = args.integer("laps");
     metrics["mode"] = args.text("mode");
-    metrics["final_pos_err_m"] = final_dev.distance;
-    metrics["final_heading_err_deg"] = std::abs(final_dev.heading_error) * 180.0 / M_PI;
+    metrics["final_pos_err_m"] = endError(run.truth.back());
+    metrics["final_heading_err_deg"] = std::abs(htr::wrapToPi(run.truth.back().yaw - end.yaw)) * 180.0 / M_PI;
     metrics["max_pos_err_m"] = max_err;
     metrics["mean_pos_err_m"] = sum_err / static_cast<double>(run.truth.size());
-    metrics["final_goal_dist_m"] =
-        std::hypot(run.truth.back().x - path.back().x, run.truth.back().y - path.back().y);
+    metrics["final_path_err_m"] = htr::deviationFromPath(path, run.truth.back()).distance;
     metrics["samples"] = run.truth.size();
     metrics["controller_state"] = run.last_state;
     if (!baseline.truth.empty()) {
       const htr::Pose2D& b = baseline.truth.back();
-      metrics["odometry_only_final_pos_err_m"] = htr::deviationFromPath(path, b).distance;
-      metrics["odometry_only_final_goal_dist_m"] = std::hypot(b.x - path.back().x, b.y - path.back().y);
+      metrics["odometry_only_final_pos_err_m"] = endError(b);
+      metrics["odometry_only_final_heading_err_deg"] = std::abs(htr::wrapToPi(b.yaw - end.yaw)) * 180.0 / M_PI;
+      metrics["odometry_only_max_pos_err_m"] = [&] {
+        double m = 0.0;
+        for (const auto& p : baseline.truth) m = std::max(m, htr::deviationFromPath(path, p).distance);
+        return m;
+      }();
       metrics["odometry_only_controller_state"] = baseline.last_state;
     } else {
       metrics["odometry_only_final_pos_err_m"] = nullptr;

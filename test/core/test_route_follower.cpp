@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "homography_teach_repeat/differential_drive.h"
 #include "homography_teach_repeat/route_follower.h"
 
 using namespace homography_teach_repeat;
@@ -18,7 +19,100 @@ Pose2D integrate(const Pose2D& pose, const VelocityCommand& c, double dt) {
                 pose.y + c.linear * std::sin(pose.yaw) * dt, wrapToPi(pose.yaw + c.angular * dt));
 }
 
+// A taught loop like scripts/demo's: keyframes every 0.5 m along a 3 x 2 m rectangle and two more
+// while turning in place at each corner; the last one is 0.4 m before the start.
+std::vector<Pose2D> taughtLoop() {
+  const std::vector<Eigen::Vector2d> corners = {{1, 1}, {4, 1}, {4, 3}, {1, 3}, {1, 1}};
+  std::vector<Pose2D> route;
+  for (std::size_t c = 0; c + 1 < corners.size(); ++c) {
+    const Eigen::Vector2d edge = corners[c + 1] - corners[c];
+    const double yaw = std::atan2(edge.y(), edge.x());
+    if (c > 0) {
+      const double previous = route.back().yaw;
+      for (int k = 1; k <= 2; ++k) {
+        route.emplace_back(corners[c].x(), corners[c].y(), wrapToPi(previous + k / 3.0 * wrapToPi(yaw - previous)));
+      }
+    }
+    const double length = edge.norm();
+    for (double s = 0.0; s < length - (c + 2 == corners.size() ? 0.45 : 0.25); s += 0.5) {
+      const Eigen::Vector2d p = corners[c] + s / length * edge;
+      route.emplace_back(p.x(), p.y(), yaw);
+    }
+  }
+  return route;
+}
+
+// Closed-loop run with fixes at 10 Hz that are 0.05 s old when they arrive, control at 20 Hz.
+Pose2D runClosedLoop(RouteFollower& follower, Pose2D robot, int max_steps, FollowOutput* last = nullptr) {
+  const double dt = 0.05;
+  Pose2D fix = robot;
+  FollowOutput out;
+  for (int k = 0; k < max_steps; ++k) {
+    const double now = k * dt;
+    if (k % 2 == 0) {
+      EXPECT_TRUE(follower.setFix(fix, now).isOk());
+    }
+    fix = robot;
+    out = follower.update(now, dt);
+    if (out.state == FollowState::kFinished) break;
+    EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
+    robot = integrateArc(robot, out.command.linear, out.command.angular, dt);
+  }
+  if (last != nullptr) *last = out;
+  return robot;
+}
+
 }  // namespace
+
+// A closed route ends where the robot started: after the laps the follower goes back to the
+// keyframe before start_index and turns to its heading (the end pose of the run, not a point
+// within ε of the last keyframe).
+TEST(RouteFollower, ClosedLoopEndsAtTheStartPose) {
+  const std::vector<Pose2D> route = taughtLoop();
+  ASSERT_TRUE(isClosedLoop(route, 1.0));
+  RouteFollowerOptions options;
+  options.laps = 5;
+  options.start_index = 1;
+  options.controller.goal_tolerance = 0.4;
+  RouteFollower follower(route, options);
+  FollowOutput out;
+  const Pose2D end = runClosedLoop(follower, route.front(), 40000, &out);
+  ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_EQ(out.command.angular, 0.0);
+  EXPECT_LT(std::hypot(end.x - route.front().x, end.y - route.front().y), options.final_goal_tolerance + 0.01);
+  EXPECT_LT(std::abs(wrapToPi(end.yaw - route.front().yaw)), options.final_heading_tolerance + 0.01);
+  EXPECT_EQ(out.lap, 4);
+
+  options.return_to_start = false;  // ends at the last keyframe instead, with its heading
+  RouteFollower open_end(route, options);
+  const Pose2D end2 = runClosedLoop(open_end, route.front(), 40000, &out);
+  ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+  EXPECT_LT(std::hypot(end2.x - route.back().x, end2.y - route.back().y), options.final_goal_tolerance + 0.01);
+  EXPECT_LT(std::abs(wrapToPi(end2.yaw - route.back().yaw)), options.final_heading_tolerance + 0.01);
+}
+
+// The last goal beside or behind the robot: it turns towards it first instead of circling it.
+TEST(RouteFollower, FinalApproachFromAnyDirection) {
+  const std::vector<Pose2D> route = {Pose2D(0, 0, 0), Pose2D(1, 0, 0), Pose2D(1.3, 0.0, 1.0)};
+  RouteFollowerOptions options;
+  options.start_index = 2;
+  for (const Pose2D& start : {Pose2D(1.0, 0.5, 0.0), Pose2D(2.0, 0.2, 0.0), Pose2D(1.5, -0.3, -2.5)}) {
+    RouteFollower follower(route, options);
+    FollowOutput out;
+    const Pose2D end = runClosedLoop(follower, start, 4000, &out);
+    ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+    EXPECT_LT(std::hypot(end.x - 1.3, end.y), options.final_goal_tolerance + 0.01);
+    EXPECT_LT(std::abs(wrapToPi(end.yaw - 1.0)), options.final_heading_tolerance + 0.01);
+  }
+  options.align_final_heading = false;  // stops at the point with whatever heading it has
+  RouteFollower follower(route, options);
+  FollowOutput out;
+  const Pose2D end = runClosedLoop(follower, Pose2D(1.0, 0.0, 0.0), 4000, &out);
+  ASSERT_EQ(out.state, FollowState::kFinished);
+  EXPECT_LT(std::hypot(end.x - 1.3, end.y), options.final_goal_tolerance + 0.01);
+  EXPECT_GT(std::abs(wrapToPi(end.yaw - 1.0)), 0.5);
+}
 
 // With a perfect fix every step the robot goes round the loop twice and stops at the end.
 TEST(RouteFollower, DrivesTheLoopForEveryLapThenStops) {
@@ -94,6 +188,15 @@ TEST(RouteFollower, BadOptions) {
   options = RouteFollowerOptions();
   options.pose_timeout = -1.0;
   EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  for (double RouteFollowerOptions::*field :
+       {&RouteFollowerOptions::final_approach_distance, &RouteFollowerOptions::final_goal_tolerance,
+        &RouteFollowerOptions::final_turn_angle, &RouteFollowerOptions::final_approach_gain,
+        &RouteFollowerOptions::final_turn_gain, &RouteFollowerOptions::final_heading_tolerance,
+        &RouteFollowerOptions::closed_route_gap}) {
+    options = RouteFollowerOptions();
+    options.*field = std::nan("");
+    EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  }
 }
 
 // dynamic_reconfigure retunes the controller and the timeout; a bad value changes nothing.

@@ -7,7 +7,8 @@
 //             (`map_frame`), successful estimates only: fast_hd and classic from the image; mu
 //             from the heading-aided odometry (odometry position, visual heading; its covariance
 //             is the model of heading_aided_odometry.h). Covariance row-major (x, y, z, roll,
-//             pitch, yaw); z, roll and pitch are not estimated and get `unobserved_variance`
+//             pitch, yaw); fast_hd/classic poses that disagree with the odometry motion since the
+//             last accepted pose are refused (odometry_gate.h; counted as failures); z, roll and pitch are not estimated and get `unobserved_variance`
 //             (classic mode: every entry, it has no covariance model);
 //             ~heading_correction (homography_teach_repeat/HeadingCorrectionStamped) every frame;
 //             ~route_markers (visualization_msgs/MarkerArray, latched): keyframes, planes, the
@@ -38,6 +39,7 @@
 #include "homography_teach_repeat/RepeatConfig.h"
 #include "homography_teach_repeat/heading_aided_odometry.h"
 #include "homography_teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/odometry_gate.h"
 #include "homography_teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/status.h"
 
@@ -79,8 +81,9 @@ class RepeatNode {
   bool initialized_ = false;
   OdometryBuffer odometry_;
   HeadingAidedOdometry heading_aided_;
+  std::optional<OdometryGate> odometry_gate_;  // fast_hd/classic poses checked against odometry
   Status last_status_{StatusCode::kInvalidInput, "no image received yet"};
-  unsigned frames_ = 0, failures_ = 0, degraded_ = 0;
+  unsigned frames_ = 0, failures_ = 0, degraded_ = 0, gated_ = 0;
   int last_inliers_ = 0;
   int last_keyframe_ = -1;
   bool last_degraded_ = false;

@@ -1,0 +1,62 @@
+// Gating visual poses against odometry. Wheel odometry drifts slowly but is never wildly wrong
+// over a short distance; a visual pose is wildly wrong when the image was matched to the wrong
+// wall or a degenerate view slipped through the other checks (seen in the simulator while
+// turning in place at a corner: one pose 1.9 m off with a covariance of centimetres). So every
+// visual pose is compared with the pose the odometry predicts from the last accepted one:
+//   predicted = visual_a ∘ (odom_a⁻¹ ∘ odom),
+// and refused when it differs by more than an allowance that grows with the odometry motion since
+// then (position: tolerance + drift_fraction · distance; heading: tolerance +
+// heading_drift_per_metre · distance + rotation_drift_fraction · |rotation|).
+// Lasting disagreement means the reference was the wrong one (e.g. a wrong first fix, or a long
+// outage with more drift than allowed): `switch_after` consecutive refused poses that agree with
+// each other through odometry become the new reference.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "homography_teach_repeat/planar_pose.h"
+#include "homography_teach_repeat/status.h"
+
+namespace homography_teach_repeat {
+
+struct OdometryGateOptions {
+  double position_tolerance = 0.15;      // [m] > 0
+  double heading_tolerance = 0.10;       // [rad] > 0
+  double drift_fraction = 0.10;          // [m per m travelled] >= 0
+  double heading_drift_per_metre = 0.05; // [rad per m travelled] >= 0
+  double rotation_drift_fraction = 0.05; // [rad per rad turned] >= 0
+  int switch_after = 3;                  // >= 1
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+class OdometryGate {
+ public:
+  explicit OdometryGate(const OdometryGateOptions& options);  // validates
+
+  // A visual pose (route frame) with the odometry pose at the same stamp. Status ok when it is
+  // accepted; kNoConsensus naming the disagreement when refused; kInvalidInput for non-finite
+  // poses. The first pose is accepted as the reference.
+  Status check(const Pose2D& visual, const Pose2D& odometry);
+  // Forget the reference (a new run, a relocalization ordered from outside).
+  void reset();
+  int refusedInARow() const { return candidates_; }
+  const OdometryGateOptions& options() const { return options_; }
+
+ private:
+  struct Anchor {
+    Pose2D visual;
+    Pose2D odometry;
+  };
+  // The excess of the disagreement over its allowance: <= 0 when `visual` agrees with `anchor`.
+  double excess(const Anchor& anchor, const Pose2D& visual, const Pose2D& odometry,
+                std::string* description) const;
+
+  OdometryGateOptions options_;
+  std::optional<Anchor> reference_;
+  std::optional<Anchor> candidate_;  // the last refused pose
+  int candidates_ = 0;               // consecutive refused poses that agree with each other
+};
+
+}  // namespace homography_teach_repeat

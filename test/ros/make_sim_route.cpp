@@ -1,0 +1,90 @@
+// Teaches a route in a planar world without ROS, as sim_teach.launch does with the nodes (the
+// same core: WaypointDriver on DifferentialDriveSim with perfect odometry, WorldRenderer at
+// 10 Hz, TeachSession with planes from odometry), for the closed-loop rostest's fixture.
+//   make_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+// The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
+#include <opencv2/core.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <stdexcept>
+
+#include "homography_teach_repeat/differential_drive.h"
+#include "homography_teach_repeat/planar_world.h"
+#include "homography_teach_repeat/teach_session.h"
+#include "homography_teach_repeat/waypoint_driver.h"
+#include "homography_teach_repeat/world_renderer.h"
+
+namespace htr = homography_teach_repeat;
+
+namespace {
+
+Eigen::Vector2d parsePoint(const std::string& text) {
+  double x = 0.0, y = 0.0;
+  if (std::sscanf(text.c_str(), "%lf,%lf", &x, &y) != 2) throw std::invalid_argument("not 'x,y': " + text);
+  return {x, y};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 6) {
+    std::cerr << "usage: make_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
+    return 2;
+  }
+  try {
+    const auto world = htr::loadPlanarWorld(argv[1]);
+    if (!world) throw std::runtime_error(world.status().message());
+    const Eigen::Vector2d start = parsePoint(argv[4]);
+    std::vector<Eigen::Vector2d> waypoints;
+    for (int i = 5; i < argc; ++i) waypoints.push_back(parsePoint(argv[i]));
+
+    htr::CameraCalibration calibration;
+    calibration.width = 640;
+    calibration.height = 480;
+    calibration.fx = calibration.fy = 500.0;
+    calibration.cx = (calibration.width - 1) / 2.0;
+    calibration.cy = (calibration.height - 1) / 2.0;
+    htr::RenderOptions render;
+    render.camera_height = 0.6;
+    render.noise_sigma = 2.0;
+    render.blur_sigma = 0.5;
+    const htr::WorldRenderer renderer{htr::PinholeCamera(calibration), render};
+    const htr::Pose2D mount(0.2, 0.0, 0.0);
+
+    htr::TeachOptions options;
+    options.route_directory = argv[2];
+    options.overwrite = true;
+    options.features.type = htr::featureTypeFromString(argv[3]);
+    options.features.max_features = 1500;
+    options.keyframes.distance = 0.5;
+    options.planes_from_odometry = true;
+    auto session = htr::TeachSession::start(options, calibration, mount);
+    if (!session) throw std::runtime_error(session.status().message());
+
+    htr::DifferentialDriveSim robot(htr::Pose2D(start.x(), start.y(), 0.0), htr::OdometryErrorModel(),
+                                    htr::DriveLimits());
+    htr::WaypointDriver driver(waypoints, htr::WaypointDriverOptions());
+    cv::RNG rng(1);
+    const double dt = 0.01;
+    for (int step = 0; !driver.finished() && step < 200000; ++step) {
+      if (step % 10 == 0) {
+        const cv::Mat image = renderer.render(*world, robot.truth().compose(mount), 1.0, rng);
+        const auto stored = session->offer(image, robot.odometry(), step * dt);
+        if (!stored) throw std::runtime_error(stored.status().message());
+      }
+      const htr::VelocityCommand command = driver.update(robot.odometry());
+      robot.step(command.linear, command.angular, dt);
+    }
+    const auto report = session->finish();
+    if (!report) throw std::runtime_error(report.status().message());
+    for (const auto& message : report->messages) std::cout << "  " << message << "\n";
+    std::cout << "route written to " << argv[2] << ": " << report->keyframes << " keyframes, "
+              << report->planes << " with a plane\n";
+    if (report->planes < report->keyframes) return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "make_sim_route: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
