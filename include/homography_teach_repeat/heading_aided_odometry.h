@@ -52,6 +52,8 @@ class HeadingAidedOdometry {
   // covariance. kNoConsensus when not aligned, kInvalidInput on non-finite input.
   Expected<Pose2D> routePose(const Pose2D& odom_pose);
   Eigen::Matrix3d covariance() const;
+  // Odometry distance [m] travelled since the last heading fix (or the alignment).
+  double distanceSinceFix() const { return distance_since_fix_; }
 
   // The map -> odom transform (route frame -> odometry frame).
   const Pose2D& alignment() const { return alignment_; }

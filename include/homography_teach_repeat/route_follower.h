@@ -7,6 +7,8 @@
 
 #include <Eigen/Core>
 
+#include <limits>
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -75,8 +77,10 @@ class RouteFollower {
   // the visual heading correction the force direction gets (0 when the pose already includes it).
   // kInvalidInput for non-finite values (the robot then stops at the next update).
   Status setFix(const Pose2D& pose, double stamp, double heading_offset = 0.0);
-  // Localization reported failure (lost tracking): stop until the next good fix.
-  void setLost(const std::string& reason);
+  // Localization reported failure (lost tracking) for the frame at `stamp` [s]: stop until the next
+  // good fix. Ignored when a fix at least as new has arrived already (repeat_node's mu mode still
+  // publishes a pose for a frame without a heading fix, and the two topics may arrive in any order).
+  void setLost(const std::string& reason, double stamp = std::numeric_limits<double>::infinity());
 
   // One control step at time `now` [s] with obstacle points in the robot frame.
   FollowOutput update(double now, double dt, const std::vector<Eigen::Vector2d>& obstacles = {});

@@ -19,6 +19,12 @@ struct WaypointDriverOptions {
   double heading_gain = 2.0;           // [1/s] > 0, turn rate per radian of heading error
   double position_tolerance = 0.05;    // [m] > 0, a waypoint is reached within this
   double turn_in_place_angle = 0.25;   // [rad] > 0
+  // After the last waypoint, turn in place to final_yaw [rad] (within final_yaw_tolerance [rad]
+  // > 0): a loop's teach run ends facing as it started, so the corner where the loop closes is
+  // taught like the others (keyframes while turning there).
+  bool turn_to_final_yaw = false;
+  double final_yaw = 0.0;
+  double final_yaw_tolerance = 0.02;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -31,12 +37,13 @@ class WaypointDriver {
   // The command for the robot at `pose`; zero once the last waypoint is reached (or for a
   // non-finite pose).
   VelocityCommand update(const Pose2D& pose);
-  bool finished() const { return next_ >= waypoints_.size(); }
+  bool finished() const { return next_ >= waypoints_.size() && (!options_.turn_to_final_yaw || aligned_); }
   std::size_t nextWaypoint() const { return next_; }
 
  private:
   std::vector<Eigen::Vector2d> waypoints_;
   WaypointDriverOptions options_;
+  bool aligned_ = false;  // turned to final_yaw after the last waypoint
   std::size_t next_ = 0;
 };
 

@@ -106,7 +106,8 @@ Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_of
   return Status::ok();
 }
 
-void RouteFollower::setLost(const std::string& reason) {
+void RouteFollower::setLost(const std::string& reason, double stamp) {
+  if (has_fix_ && stamp <= stamp_) return;
   lost_ = true;
   lost_reason_ = reason;
 }

@@ -12,12 +12,14 @@ void WaypointDriverOptions::validate() const {
                                                    {"angular_speed", angular_speed},
                                                    {"heading_gain", heading_gain},
                                                    {"position_tolerance", position_tolerance},
-                                                   {"turn_in_place_angle", turn_in_place_angle}};
+                                                   {"turn_in_place_angle", turn_in_place_angle},
+                                                   {"final_yaw_tolerance", final_yaw_tolerance}};
   for (const auto& [name, value] : fields) {
     if (!std::isfinite(value) || !(value > 0.0)) {
       throw std::invalid_argument(std::string("waypoint driver: ") + name + " must be > 0");
     }
   }
+  if (!std::isfinite(final_yaw)) throw std::invalid_argument("waypoint driver: final_yaw must be finite");
 }
 
 WaypointDriver::WaypointDriver(std::vector<Eigen::Vector2d> waypoints, const WaypointDriverOptions& options)
@@ -37,6 +39,15 @@ VelocityCommand WaypointDriver::update(const Pose2D& pose) {
     ++next_;
   }
   if (finished()) return command;
+  if (next_ >= waypoints_.size()) {  // the final turn in place
+    const double error = wrapToPi(options_.final_yaw - pose.yaw);
+    if (std::abs(error) < options_.final_yaw_tolerance) {
+      aligned_ = true;
+      return command;
+    }
+    command.angular = std::clamp(options_.heading_gain * error, -options_.angular_speed, options_.angular_speed);
+    return command;
+  }
   const Eigen::Vector2d to_goal = waypoints_[next_] - Eigen::Vector2d(pose.x, pose.y);
   const double error = wrapToPi(std::atan2(to_goal.y(), to_goal.x()) - pose.yaw);
   command.angular = std::clamp(options_.heading_gain * error, -options_.angular_speed, options_.angular_speed);

@@ -263,7 +263,7 @@ void ControllerNode::onHeading(const HeadingCorrectionStampedConstPtr& heading) 
   reference_index_ = heading->reference_index;
   inliers_ = heading->inliers;
   if (heading->ok || !follower_) return;
-  follower_->setLost(heading->status);
+  follower_->setLost(heading->status, heading->header.stamp.toSec());
 }
 
 void ControllerNode::onScan(const sensor_msgs::LaserScanConstPtr& scan) {

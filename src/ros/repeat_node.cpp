@@ -86,6 +86,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
       publish_tf_(readParameter(private_nh, "publish_tf", false)),
       unobserved_variance_(readParameter(private_nh, "unobserved_variance", 1e6)),
       start_keyframe_(readParameter(private_nh, "start_keyframe", 0)),
+      mu_max_unaided_distance_(readParameter(private_nh, "mu_max_unaided_distance", 1.0)),
       image_transport_(nh),
       diagnostics_(nh, private_nh) {
   const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
@@ -94,6 +95,10 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   options_ = options;
   heading_aided_ = HeadingAidedOdometry(readHeadingAidedOptions(private_nh));
   if (readParameter(private_nh, "odometry_gate", true)) odometry_gate_.emplace(readGateOptions(private_nh));
+  if (!std::isfinite(mu_max_unaided_distance_) || mu_max_unaided_distance_ < 0.0) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("mu_max_unaided_distance") +
+                             "' must be finite and >= 0");
+  }
   if (!(unobserved_variance_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("unobserved_variance") +
                              "' must be > 0");
@@ -223,7 +228,11 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   if (!cv_image) return fail(cv_image.status());
   const auto estimate = initialized_ ? localizer_->localize(*cv_image)
                                      : localizer_->initializeGlobally(*cv_image);
-  if (!estimate) return fail(estimate.status());
+  if (!estimate) {
+    fail(estimate.status());
+    if (mode_ == RepeatMode::kMu) publishUnaidedMuPose(image->header);
+    return;
+  }
   if (estimate->has_pose && odometry_gate_) {
     const auto odom = odometry_.poseAt(image->header.stamp.toSec());
     if (odom) {
@@ -280,6 +289,23 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   localizer_->advanceTrackingTo(aided->first);
   publishPose(image->header, aided->first, &aided->second);
   if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
+}
+
+void RepeatNode::publishUnaidedMuPose(const std_msgs::Header& image_header) {
+  if (!heading_aided_.aligned() || !(mu_max_unaided_distance_ > 0.0)) return;
+  const auto odom = odometry_.poseAt(image_header.stamp.toSec());
+  if (!odom) return;
+  const auto pose = heading_aided_.routePose(*odom);
+  if (!pose) return;
+  if (heading_aided_.distanceSinceFix() > mu_max_unaided_distance_) {
+    ROS_WARN_THROTTLE(2.0, "repeat_node: mu mode: %.2f m without a heading fix (mu_max_unaided_distance %.2f m): "
+                      "no pose until vision is back", heading_aided_.distanceSinceFix(), mu_max_unaided_distance_);
+    return;
+  }
+  localizer_->advanceTrackingTo(*pose);
+  const Eigen::Matrix3d covariance = heading_aided_.covariance();
+  publishPose(image_header, *pose, &covariance);
+  if (publish_tf_) publishMapToOdom(image_header.stamp, heading_aided_.alignment());
 }
 
 Expected<std::pair<Pose2D, Eigen::Matrix3d>> RepeatNode::headingAidedPose(double stamp,

@@ -41,6 +41,12 @@ RouteDriver::RouteDriver(const ros::NodeHandle& nh, const ros::NodeHandle& priva
   options.heading_gain = readParameter(private_nh, "heading_gain", options.heading_gain);
   options.position_tolerance = readParameter(private_nh, "position_tolerance", options.position_tolerance);
   options.turn_in_place_angle = readParameter(private_nh, "turn_in_place_angle", options.turn_in_place_angle);
+  // Optional: after the last waypoint turn in place to this yaw [rad] (a loop's start heading).
+  double final_yaw = 0.0;
+  if (private_nh.hasParam("final_yaw")) {
+    options.turn_to_final_yaw = true;
+    options.final_yaw = readParameter(private_nh, "final_yaw", final_yaw);
+  }
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   const double start_delay = readParameter(private_nh, "start_delay", 0.0);
   finish_service_ = readParameter<std::string>(private_nh, "finish_service", "");

@@ -225,6 +225,22 @@ TEST(WaypointDriver, DrivesTheLoopAndStops) {
   EXPECT_EQ(stopped.linear, 0.0);
   EXPECT_EQ(stopped.angular, 0.0);
   EXPECT_THROW(WaypointDriver({}, WaypointDriverOptions()), std::invalid_argument);
+
+  // With turn_to_final_yaw it then turns in place to face as it started.
+  WaypointDriverOptions turning;
+  turning.turn_to_final_yaw = true;
+  turning.final_yaw = 0.0;
+  WaypointDriver closing(loop, turning);
+  pose = Pose2D(0.0, 0.0, 0.0);
+  for (steps = 0; steps < 20000 && !closing.finished(); ++steps) {
+    const VelocityCommand c = closing.update(pose);
+    pose = integrateArc(pose, c.linear, c.angular, 0.02);
+  }
+  EXPECT_TRUE(closing.finished());
+  EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);
+  EXPECT_LT(std::abs(pose.yaw), turning.final_yaw_tolerance + 0.01);
+  turning.final_yaw = NAN;
+  EXPECT_THROW(WaypointDriver(loop, turning), std::invalid_argument);
 }
 
 TEST(PathDeviation, DistanceToThePolylineAndHeadingOfTheNearestKeyframe) {

@@ -177,6 +177,19 @@ TEST(RouteFollower, SafetyStops) {
   EXPECT_EQ(out.command.linear, 0.0);
 }
 
+// A failure report for a frame whose pose already arrived (same stamp or older) does not stop the
+// robot; a newer one does.
+TEST(RouteFollower, LostReportOlderThanTheFixIsIgnored) {
+  RouteFollower follower(squareRoute(), RouteFollowerOptions());
+  ASSERT_TRUE(follower.setFix(Pose2D(0.1, 0.0, 0.0), 10.0).isOk());
+  follower.setLost("no heading fix", 10.0);
+  EXPECT_EQ(follower.update(10.05, 0.05).state, FollowState::kFollowing);
+  follower.setLost("no heading fix", 9.9);
+  EXPECT_EQ(follower.update(10.1, 0.05).state, FollowState::kFollowing);
+  follower.setLost("lost", 10.1);
+  EXPECT_EQ(follower.update(10.15, 0.05).state, FollowState::kStopped);
+}
+
 TEST(RouteFollower, BadOptions) {
   RouteFollowerOptions options;
   EXPECT_THROW(RouteFollower({}, options), std::invalid_argument);

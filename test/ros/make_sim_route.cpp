@@ -1,6 +1,7 @@
 // Teaches a route in a planar world without ROS, as sim_teach.launch does with the nodes (the
-// same core: WaypointDriver on DifferentialDriveSim with perfect odometry, WorldRenderer at
-// 10 Hz, TeachSession with planes from odometry), for the closed-loop rostest's fixture.
+// same core: WaypointDriver on DifferentialDriveSim with perfect odometry, ending with a turn to
+// the start heading, WorldRenderer at 10 Hz, TeachSession with planes from odometry), for the
+// closed-loop rostest's fixture.
 //   make_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
 // The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
 #include <opencv2/core.hpp>
@@ -64,7 +65,10 @@ int main(int argc, char** argv) {
 
     htr::DifferentialDriveSim robot(htr::Pose2D(start.x(), start.y(), 0.0), htr::OdometryErrorModel(),
                                     htr::DriveLimits());
-    htr::WaypointDriver driver(waypoints, htr::WaypointDriverOptions());
+    htr::WaypointDriverOptions driving;
+    driving.turn_to_final_yaw = true;  // as sim_teach.launch: end facing the start heading
+    driving.final_yaw = 0.0;
+    htr::WaypointDriver driver(waypoints, driving);
     cv::RNG rng(1);
     const double dt = 0.01;
     for (int step = 0; !driver.finished() && step < 200000; ++step) {

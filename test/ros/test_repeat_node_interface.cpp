@@ -187,7 +187,92 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   EXPECT_LT(std::hypot(p.pose.position.x - truth.x, p.pose.position.y - truth.y), 0.3);
   EXPECT_GT(p.covariance[35], 0.0);
   EXPECT_EQ(p.covariance[14], 1e6);
+
+  // A frame without a heading fix (an unrelated scene): the heading-aided odometry alone is still
+  // published, with a larger covariance, up to mu_max_unaided_distance (1 m) since the last fix.
+  const double fixed_variance = p.covariance[0];
+  auto unrelatedFrame = [&](double stamp, double odom_x) {
+    for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
+      nav_msgs::Odometry odom;
+      odom.header.stamp = ros::Time(t);
+      odom.header.frame_id = "odom";
+      odom.pose.pose.position.x = odom_x;
+      odom.pose.pose.orientation.w = 1.0;
+      odom_pub.publish(odom);
+    }
+    ros::WallDuration(0.2).sleep();
+    ros::spinOnce();
+    auto other = test_support::makeImage(test_support::makeTexture(640, 480, 77), "mono8");
+    other->header.stamp = ros::Time(stamp);
+    sensor_msgs::CameraInfo other_info = syntheticCameraInfo();
+    other_info.header = other->header;
+    const std::size_t before = headings.size();
+    camera.publish(*other, other_info);
+    EXPECT_TRUE(test_support::spinUntil([&] { return headings.size() > before; }, 30.0));
+    EXPECT_FALSE(headings.back().ok);
+    ros::WallDuration(0.3).sleep();
+    ros::spinOnce();
+  };
+  const std::size_t poses_at_fix = poses.size();
+  unrelatedFrame(302.0, 5.5);
+  ASSERT_EQ(poses.size(), poses_at_fix + 1) << "no unaided mu-mode pose 0.5 m after the fix";
+  EXPECT_GT(poses.back().pose.covariance[0], fixed_variance);
+  unrelatedFrame(304.0, 7.0);  // 2 m since the fix
+  EXPECT_EQ(poses.size(), poses_at_fix + 1);
   EXPECT_EQ(reconfigureMode("fast_hd"), "fast_hd");
+}
+
+// A visual pose whose motion since the last accepted pose disagrees with the odometry's (here the
+// odometry moved 1.5 m sideways, the images 0.2 m back) is refused: heading_correction ok = false
+// naming the odometry disagreement, and no pose.
+TEST(RepeatNode, OdometryGateRefusesAPoseOdometryContradicts) {
+  ros::NodeHandle nh;
+  image_transport::ImageTransport it(nh);
+  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
+  std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
+  std::vector<HeadingCorrectionStamped> headings;
+  ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+      "repeat_node/pose", 20, [&](const auto& m) { poses.push_back(*m); });
+  ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(
+      "repeat_node/heading_correction", 20, [&](const auto& m) { headings.push_back(*m); });
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] {
+        return camera.getNumSubscribers() > 0 && odom_pub.getNumSubscribers() > 0 &&
+               heading_sub.getNumPublishers() > 0 && pose_sub.getNumPublishers() > 0;
+      },
+      30.0));
+  ASSERT_EQ(reconfigureMode("fast_hd"), "fast_hd");
+  const test_support::SyntheticWall wall;
+  auto publishFrame = [&](double s, double stamp, double odom_x, double odom_y) {
+    for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
+      nav_msgs::Odometry odom;
+      odom.header.stamp = ros::Time(t);
+      odom.header.frame_id = "odom";
+      odom.pose.pose.position.x = odom_x;
+      odom.pose.pose.position.y = odom_y;
+      odom.pose.pose.orientation.w = 1.0;
+      odom_pub.publish(odom);
+    }
+    ros::WallDuration(0.2).sleep();
+    ros::spinOnce();
+    auto image = test_support::makeImage(wall.imageAt(PlanarPose(0.08 * s, s, 0.04 * s + 0.02)), "mono8");
+    image->header.stamp = ros::Time(stamp);
+    sensor_msgs::CameraInfo info = syntheticCameraInfo();
+    info.header = image->header;
+    const std::size_t before = headings.size();
+    camera.publish(*image, info);
+    return test_support::spinUntil([&] { return headings.size() > before; }, 30.0);
+  };
+  ASSERT_TRUE(publishFrame(1.0, 400.0, 5.0, 0.0));
+  EXPECT_TRUE(headings.back().ok) << headings.back().status;
+  ASSERT_TRUE(test_support::spinUntil([&] { return poses.size() == 1; }, 5.0));
+  ASSERT_TRUE(publishFrame(0.8, 401.0, 5.0, 1.5));
+  EXPECT_FALSE(headings.back().ok);
+  EXPECT_NE(headings.back().status.find("odometry"), std::string::npos) << headings.back().status;
+  ros::WallDuration(0.5).sleep();
+  ros::spinOnce();
+  EXPECT_EQ(poses.size(), 1u);
 }
 
 int main(int argc, char** argv) {

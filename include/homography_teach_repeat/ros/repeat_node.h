@@ -62,6 +62,9 @@ class RepeatNode {
   // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
   // without odometry at that stamp.
   Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
+  // mu mode, the frame failed: the heading-aided odometry alone (its covariance keeps growing)
+  // while the robot has travelled at most mu_max_unaided_distance since the last heading fix.
+  void publishUnaidedMuPose(const std_msgs::Header& image_header);
   void publishPose(const std_msgs::Header& image_header, const Pose2D& pose,
                    const Eigen::Matrix3d* covariance);
   void publishMapToOdom(const ros::Time& stamp, const Pose2D& map_to_odom);
@@ -73,6 +76,7 @@ class RepeatNode {
   bool publish_tf_ = false;
   double unobserved_variance_ = 1e6;
   int start_keyframe_ = 0;
+  double mu_max_unaided_distance_ = 1.0;  // [m]
   RepeatMode mode_ = RepeatMode::kFastHd;
   RepeatOptions options_;
 

@@ -9,6 +9,7 @@
 //             angular_speed [rad/s], heading_gain [1/s], position_tolerance [m],
 //             turn_in_place_angle [rad], control_rate [Hz], finish_service (string, "" = none),
 //             start_delay [s] (wait before driving, e.g. for the teach node to start),
+//             final_yaw [rad] (optional: turn in place to it after the last waypoint),
 //             exit_when_done (bool: shut down after the last waypoint, for scripts)
 #pragma once
 
