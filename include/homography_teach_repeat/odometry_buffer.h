@@ -27,6 +27,10 @@ class OdometryBuffer {
   // newest sample; kInvalidInput when older than the oldest kept sample or across a gap larger
   // than max_gap_seconds.
   Expected<Pose2D> poseAt(double stamp) const;
+  // poseAt, except that a stamp at most `max_lag` [s] newer than the newest sample gets the newest
+  // sample (an image processed before the odometry of the same instant has arrived; the robot
+  // moves millimetres in that time). Errors as poseAt.
+  Expected<Pose2D> poseNear(double stamp, double max_lag) const;
 
   bool empty() const { return samples_.empty(); }
   double newestStamp() const { return samples_.empty() ? 0.0 : samples_.back().first; }

@@ -7,11 +7,16 @@
 // and refused when it differs by more than an allowance that grows with the odometry motion since
 // then (position: tolerance + drift_fraction · distance; heading: tolerance +
 // heading_drift_per_metre · distance + rotation_drift_fraction · |rotation|).
+// Checking against the last accepted pose only would let an estimate that creeps away a little at
+// every frame through (seen in the simulator: a pose moving at 60 % of the robot's speed, each
+// frame within the allowance), so the oldest accepted pose within `window` metres of odometry
+// travel is checked as well.
 // Lasting disagreement means the reference was the wrong one (e.g. a wrong first fix, or a long
 // outage with more drift than allowed): `switch_after` consecutive refused poses that agree with
-// each other through odometry become the new reference.
+// each other through odometry (each with the first of them) become the new reference.
 #pragma once
 
+#include <deque>
 #include <optional>
 #include <string>
 
@@ -26,7 +31,8 @@ struct OdometryGateOptions {
   double drift_fraction = 0.10;          // [m per m travelled] >= 0
   double heading_drift_per_metre = 0.05; // [rad per m travelled] >= 0
   double rotation_drift_fraction = 0.05; // [rad per rad turned] >= 0
-  int switch_after = 3;                  // >= 1
+  int switch_after = 5;                  // >= 1
+  double window = 1.0;                   // [m] > 0
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -49,13 +55,14 @@ class OdometryGate {
     Pose2D visual;
     Pose2D odometry;
   };
+  void accept(const Anchor& anchor);
   // The excess of the disagreement over its allowance: <= 0 when `visual` agrees with `anchor`.
   double excess(const Anchor& anchor, const Pose2D& visual, const Pose2D& odometry,
                 std::string* description) const;
 
   OdometryGateOptions options_;
-  std::optional<Anchor> reference_;
-  std::optional<Anchor> candidate_;  // the last refused pose
+  std::deque<Anchor> accepted_;      // accepted poses within `window` of travel, newest last
+  std::optional<Anchor> candidate_;  // the first refused pose of the current run
   int candidates_ = 0;               // consecutive refused poses that agree with each other
 };
 

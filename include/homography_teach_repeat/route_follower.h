@@ -40,6 +40,15 @@ struct RouteFollowerOptions {
   // start_index 0 (the route's own last keyframe ends it).
   bool return_to_start = true;
   double closed_route_gap = 1.0;
+  // Corners. Where the teach run turned in place (the next keyframe within corner_radius [m] of
+  // the goal), the goal is reached within corner_tolerance [m] instead of ε, so the robot turns
+  // where the route turns instead of cutting the corner at ε and swinging wide (found in the
+  // simulator: at 0.4 m it overshot by 0.3 m into views never taught, and vision went wrong there).
+  // A goal more than turn_in_place_angle [rad] off the robot's heading is turned to in place
+  // (w = final_turn_gain · bearing) instead of by the force direction of eq. (3) (0: never).
+  double corner_radius = 0.05;
+  double corner_tolerance = 0.15;
+  double turn_in_place_angle = 0.5;
   // The end of the run. Paper 002's robot stops once within ε of the last keyframe; here the last
   // goal is approached within final_approach_distance [m] with a go-to-point law (turn in place
   // while the goal's bearing exceeds final_turn_angle [rad]; otherwise v = final_approach_gain ·
@@ -100,6 +109,7 @@ class RouteFollower {
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
   int lapOf(std::size_t position) const;
+  double toleranceOf(std::size_t position) const;
 
   std::vector<Pose2D> goals_;
   RouteFollowerOptions options_;

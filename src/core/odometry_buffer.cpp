@@ -58,4 +58,12 @@ Expected<Pose2D> OdometryBuffer::poseAt(double stamp) const {
                 wrapToPi(a.yaw + s * wrapToPi(b.yaw - a.yaw)));
 }
 
+Expected<Pose2D> OdometryBuffer::poseNear(double stamp, double max_lag) const {
+  if (!samples_.empty() && std::isfinite(stamp) && stamp > samples_.back().first &&
+      stamp - samples_.back().first <= max_lag) {
+    return samples_.back().second;
+  }
+  return poseAt(stamp);
+}
+
 }  // namespace homography_teach_repeat

@@ -24,12 +24,13 @@ void OdometryGateOptions::validate() const {
   check(heading_drift_per_metre, false, "heading_drift_per_metre");
   check(rotation_drift_fraction, false, "rotation_drift_fraction");
   if (switch_after < 1) throw std::invalid_argument("odometry gate: switch_after must be >= 1");
+  check(window, true, "window");
 }
 
 OdometryGate::OdometryGate(const OdometryGateOptions& options) : options_(options) { options_.validate(); }
 
 void OdometryGate::reset() {
-  reference_.reset();
+  accepted_.clear();
   candidate_.reset();
   candidates_ = 0;
 }
@@ -56,23 +57,43 @@ double OdometryGate::excess(const Anchor& anchor, const Pose2D& visual, const Po
   return std::max(position_error / position_allowance, heading_error / heading_allowance) - 1.0;
 }
 
+void OdometryGate::accept(const Anchor& anchor) {
+  accepted_.push_back(anchor);
+  if (accepted_.size() > 300) accepted_.pop_front();  // e.g. a long turn in place
+  // Keep the oldest accepted pose that is still within `window` of odometry travel.
+  while (accepted_.size() > 1) {
+    const Pose2D& second = accepted_[1].odometry;
+    if (std::hypot(second.x - anchor.odometry.x, second.y - anchor.odometry.y) < options_.window) break;
+    accepted_.pop_front();
+  }
+}
+
 Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
   if (!finitePose(visual) || !finitePose(odometry)) {
     return Status(StatusCode::kInvalidInput, "odometry gate: non-finite visual or odometry pose");
   }
   const Anchor current{visual, odometry};
   std::string disagreement;
-  if (!reference_ || excess(*reference_, visual, odometry, &disagreement) <= 0.0) {
-    reference_ = current;
+  const bool agrees = accepted_.empty() || (excess(accepted_.back(), visual, odometry, &disagreement) <= 0.0 &&
+                                            excess(accepted_.front(), visual, odometry, &disagreement) <= 0.0);
+  if (agrees) {
+    accept(current);
     candidate_.reset();
     candidates_ = 0;
     return Status::ok();
   }
   // Refused: does it continue the run of refused poses?
-  candidates_ = candidate_ && excess(*candidate_, visual, odometry, nullptr) <= 0.0 ? candidates_ + 1 : 1;
-  candidate_ = current;
+  // (Compared with the first pose of the run, so that a run creeping away frame by frame does not
+  // count as agreeing.)
+  if (candidate_ && excess(*candidate_, visual, odometry, nullptr) <= 0.0) {
+    ++candidates_;
+  } else {
+    candidate_ = current;
+    candidates_ = 1;
+  }
   if (candidates_ >= options_.switch_after) {
-    reference_ = current;
+    accepted_.clear();
+    accept(current);
     candidate_.reset();
     candidates_ = 0;
     return Status::ok();

@@ -31,6 +31,11 @@ void RouteFollowerOptions::validate() const {
   if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
     throw std::invalid_argument("closed_route_gap must be finite and >= 0");
   }
+  positive(corner_radius, "corner_radius");
+  positive(corner_tolerance, "corner_tolerance");
+  if (!std::isfinite(turn_in_place_angle) || turn_in_place_angle < 0.0 || turn_in_place_angle > M_PI) {
+    throw std::invalid_argument("turn_in_place_angle must be in [0, pi]");
+  }
   positive(final_approach_distance, "final_approach_distance");
   positive(final_goal_tolerance, "final_goal_tolerance");
   positive(final_approach_gain, "final_approach_gain");
@@ -82,6 +87,9 @@ void RouteFollower::retune(const RouteFollowerOptions& options) {
   setControllerParameters(options.controller);
   options_.pose_timeout = options.pose_timeout;
   options_.require_goal_heading = options.require_goal_heading;
+  options_.corner_radius = options.corner_radius;
+  options_.corner_tolerance = options.corner_tolerance;
+  options_.turn_in_place_angle = options.turn_in_place_angle;
   options_.final_approach_distance = options.final_approach_distance;
   options_.final_goal_tolerance = options.final_goal_tolerance;
   options_.final_turn_angle = options.final_turn_angle;
@@ -135,14 +143,13 @@ FollowOutput RouteFollower::update(double now, double dt,
   }
   // Goals reached (distance < ε; and heading within δ when required, paper 002 Fig. 8) are passed;
   // the last one has its own test (finalApproach).
-  auto reached = [&](const Pose2D& goal) {
-    return options_.require_goal_heading
-               ? goalReached(pose_, goal, options_.controller)
-               : std::hypot(goal.x - pose_.x, goal.y - pose_.y) < options_.controller.goal_tolerance;
+  auto reached = [&](std::size_t position) {
+    const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
+    const bool near = std::hypot(goal.x - pose_.x, goal.y - pose_.y) < toleranceOf(position);
+    return near && (!options_.require_goal_heading ||
+                    std::abs(wrapToPi(goal.yaw - pose_.yaw)) < options_.controller.goal_heading_tolerance);
   };
-  while (next_ + 1 < sequence_.size() && reached(goals_[static_cast<std::size_t>(sequence_[next_])])) {
-    ++next_;
-  }
+  while (next_ + 1 < sequence_.size() && reached(next_)) ++next_;
   const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
   const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
   if (next_ + 1 == sequence_.size() && (at_final_position_ || distance < options_.final_approach_distance)) {
@@ -154,10 +161,24 @@ FollowOutput RouteFollower::update(double now, double dt,
     if (!*command) return stop(FollowState::kStopped, command->status().message());
     return following(**command, distance);
   }
-  const auto command =
-      controller_.step(distance, goalBearing(pose_, goal, heading_offset_), obstacles, dt);
+  const double bearing = goalBearing(pose_, goal, heading_offset_);
+  if (options_.turn_in_place_angle > 0.0 && std::abs(bearing) > options_.turn_in_place_angle) {
+    const auto command = controller_.track(0.0, options_.final_turn_gain * bearing, dt);
+    if (!command) return stop(FollowState::kStopped, command.status().message());
+    return following(*command, distance);
+  }
+  const auto command = controller_.step(distance, bearing, obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
   return following(*command, distance);
+}
+
+double RouteFollower::toleranceOf(std::size_t position) const {
+  if (position + 1 >= sequence_.size()) return options_.controller.goal_tolerance;
+  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
+  const Pose2D& next = goals_[static_cast<std::size_t>(sequence_[position + 1])];
+  const bool corner = std::hypot(next.x - goal.x, next.y - goal.y) < options_.corner_radius;
+  return corner ? std::min(options_.corner_tolerance, options_.controller.goal_tolerance)
+                : options_.controller.goal_tolerance;
 }
 
 FollowOutput RouteFollower::following(const VelocityCommand& command, double distance) const {

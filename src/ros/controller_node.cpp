@@ -40,6 +40,9 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.require_goal_heading = readParameter(nh, "require_goal_heading", o.require_goal_heading);
     o.return_to_start = readParameter(nh, "return_to_start", o.return_to_start);
     o.closed_route_gap = readParameter(nh, "closed_route_gap", o.closed_route_gap);
+    o.corner_radius = readParameter(nh, "corner_radius", o.corner_radius);
+    o.corner_tolerance = readParameter(nh, "corner_tolerance", o.corner_tolerance);
+    o.turn_in_place_angle = readParameter(nh, "turn_in_place_angle", o.turn_in_place_angle);
     o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
     o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);
     o.final_turn_angle = readParameter(nh, "final_turn_angle", o.final_turn_angle);

@@ -17,6 +17,10 @@
 namespace homography_teach_repeat {
 namespace {
 
+// The odometry of an image's instant may arrive after the image (a simulator publishes both at
+// once); for the odometry gate the newest sample is close enough within this lag [s].
+constexpr double kOdometryLagForGate = 0.1;
+
 RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
   RepeatOptions options;
   try {
@@ -69,6 +73,7 @@ OdometryGateOptions readGateOptions(const ros::NodeHandle& nh) {
     o.heading_drift_per_metre = readParameter(nh, "gate_heading_drift_per_metre", o.heading_drift_per_metre);
     o.rotation_drift_fraction = readParameter(nh, "gate_rotation_drift_fraction", o.rotation_drift_fraction);
     o.switch_after = readParameter(nh, "gate_switch_after", o.switch_after);
+    o.window = readParameter(nh, "gate_window", o.window);
     o.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
@@ -86,7 +91,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
       publish_tf_(readParameter(private_nh, "publish_tf", false)),
       unobserved_variance_(readParameter(private_nh, "unobserved_variance", 1e6)),
       start_keyframe_(readParameter(private_nh, "start_keyframe", 0)),
-      mu_max_unaided_distance_(readParameter(private_nh, "mu_max_unaided_distance", 1.0)),
+      mu_max_unaided_distance_(readParameter(private_nh, "mu_max_unaided_distance", 3.0)),
       image_transport_(nh),
       diagnostics_(nh, private_nh) {
   const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
@@ -234,7 +239,7 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     return;
   }
   if (estimate->has_pose && odometry_gate_) {
-    const auto odom = odometry_.poseAt(image->header.stamp.toSec());
+    const auto odom = odometry_.poseNear(image->header.stamp.toSec(), kOdometryLagForGate);
     if (odom) {
       const Status gated = odometry_gate_->check(estimate->base_pose, *odom);
       if (!gated.isOk()) {

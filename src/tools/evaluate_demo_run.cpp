@@ -19,6 +19,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -151,6 +152,16 @@ int main(int argc, char** argv) {
     }
     cv::imwrite((out / "trajectory.png").string(), canvas);
     std::cout << metrics.dump(2) << "\n";
+    // The short summary.
+    std::printf("\n%s, %d lap(s): the robot ended %.3f m / %.2f deg from the route's end pose (path error mean "
+                "%.3f m, max %.3f m)",
+                args.text("mode").c_str(), static_cast<int>(args.integer("laps")),
+                metrics["final_pos_err_m"].get<double>(), metrics["final_heading_err_deg"].get<double>(),
+                metrics["mean_pos_err_m"].get<double>(), max_err);
+    if (!baseline.truth.empty()) {
+      std::printf("; odometry only: %.3f m", metrics["odometry_only_final_pos_err_m"].get<double>());
+    }
+    std::printf("\n");
   } catch (const std::exception& e) {
     std::cerr << "evaluate_demo_run: " << e.what() << "\n";
     return 1;

@@ -33,3 +33,18 @@ TEST(OdometryBuffer, RefusesNanOutOfOrderAndOutOfRange) {
   EXPECT_EQ(buffer.poseAt(0.95).status().code(), StatusCode::kInvalidInput);  // dropped (capacity)
 }
 
+
+// An image a little newer than the newest odometry gets the newest sample; much newer does not.
+TEST(OdometryBuffer, PoseNearAcceptsASmallLag) {
+  OdometryBuffer buffer;
+  ASSERT_TRUE(buffer.add(1.0, Pose2D(0.0, 0.0, 0.0)).isOk());
+  ASSERT_TRUE(buffer.add(1.1, Pose2D(0.1, 0.0, 0.0)).isOk());
+  const auto interpolated = buffer.poseNear(1.05, 0.1);
+  ASSERT_TRUE(interpolated);
+  EXPECT_NEAR(interpolated->x, 0.05, 1e-12);
+  const auto newest = buffer.poseNear(1.15, 0.1);
+  ASSERT_TRUE(newest);
+  EXPECT_EQ(newest->x, 0.1);
+  EXPECT_EQ(buffer.poseNear(1.3, 0.1).status().code(), StatusCode::kNoConsensus);
+  EXPECT_FALSE(buffer.poseNear(NAN, 0.1));
+}

@@ -65,7 +65,7 @@ TEST(OdometryGate, SwitchesReferenceAfterConsistentRefusals) {
   ASSERT_TRUE(gate.check(Pose2D(3.0, 2.0, 0.0), odometryOf(Pose2D(0, 0, 0))).isOk());  // wrong
   EXPECT_FALSE(gate.check(Pose2D(0.1, 0, 0), odometryOf(Pose2D(0.1, 0, 0))).isOk());
   EXPECT_FALSE(gate.check(Pose2D(0.2, 0, 0), odometryOf(Pose2D(0.2, 0, 0))).isOk());
-  EXPECT_EQ(gate.refusedInARow(), 2);
+  EXPECT_EQ(gate.refusedInARow(), 2);  // both agree with the first refused pose
   EXPECT_TRUE(gate.check(Pose2D(0.3, 0, 0), odometryOf(Pose2D(0.3, 0, 0))).isOk());
   EXPECT_TRUE(gate.check(Pose2D(0.4, 0, 0), odometryOf(Pose2D(0.4, 0, 0))).isOk());
 
@@ -91,4 +91,18 @@ TEST(OdometryGate, BadInput) {
   bad = OdometryGateOptions();
   bad.switch_after = 0;
   EXPECT_THROW(OdometryGate{bad}, std::invalid_argument);
+}
+
+// An estimate that creeps away a little at every frame (here it moves at 60 % of the robot's
+// speed: 4 cm per 10 cm step, each step within the allowance) is caught against the oldest
+// accepted pose within `window` of travel.
+TEST(OdometryGate, CatchesAPoseCreepingAway) {
+  OdometryGate gate{OdometryGateOptions()};
+  int first_refusal = -1;
+  for (int k = 0; k <= 20 && first_refusal < 0; ++k) {
+    const Pose2D truth(0.1 * k, 0.0, 0.0);
+    if (!gate.check(Pose2D(0.06 * k, 0.0, 0.0), odometryOf(truth)).isOk()) first_refusal = k;
+  }
+  EXPECT_GT(first_refusal, 0);
+  EXPECT_LE(first_refusal, 12);  // within about the window (1 m) of travel
 }

@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "homography_teach_repeat/differential_drive.h"
+#include "homography_teach_repeat/path_deviation.h"
 #include "homography_teach_repeat/route_follower.h"
 
 using namespace homography_teach_repeat;
@@ -20,7 +22,8 @@ Pose2D integrate(const Pose2D& pose, const VelocityCommand& c, double dt) {
 }
 
 // A taught loop like scripts/demo's: keyframes every 0.5 m along a 3 x 2 m rectangle and two more
-// while turning in place at each corner; the last one is 0.4 m before the start.
+// while turning in place at each corner, including the start corner where the teach run ends
+// turning back to its start heading.
 std::vector<Pose2D> taughtLoop() {
   const std::vector<Eigen::Vector2d> corners = {{1, 1}, {4, 1}, {4, 3}, {1, 3}, {1, 1}};
   std::vector<Pose2D> route;
@@ -39,11 +42,13 @@ std::vector<Pose2D> taughtLoop() {
       route.emplace_back(p.x(), p.y(), yaw);
     }
   }
+  for (int k = 1; k <= 2; ++k) route.emplace_back(1.0, 1.0, -M_PI / 2 + k / 3.0 * M_PI / 2);
   return route;
 }
 
 // Closed-loop run with fixes at 10 Hz that are 0.05 s old when they arrive, control at 20 Hz.
-Pose2D runClosedLoop(RouteFollower& follower, Pose2D robot, int max_steps, FollowOutput* last = nullptr) {
+Pose2D runClosedLoop(RouteFollower& follower, Pose2D robot, int max_steps, FollowOutput* last = nullptr,
+                     const std::vector<Pose2D>* path = nullptr, double* max_deviation = nullptr) {
   const double dt = 0.05;
   Pose2D fix = robot;
   FollowOutput out;
@@ -57,6 +62,9 @@ Pose2D runClosedLoop(RouteFollower& follower, Pose2D robot, int max_steps, Follo
     if (out.state == FollowState::kFinished) break;
     EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
     robot = integrateArc(robot, out.command.linear, out.command.angular, dt);
+    if (path != nullptr && max_deviation != nullptr) {
+      *max_deviation = std::max(*max_deviation, deviationFromPath(*path, robot).distance);
+    }
   }
   if (last != nullptr) *last = out;
   return robot;
@@ -76,8 +84,11 @@ TEST(RouteFollower, ClosedLoopEndsAtTheStartPose) {
   options.controller.goal_tolerance = 0.4;
   RouteFollower follower(route, options);
   FollowOutput out;
-  const Pose2D end = runClosedLoop(follower, route.front(), 40000, &out);
+  double max_deviation = 0.0;
+  const Pose2D end = runClosedLoop(follower, route.front(), 40000, &out, &route, &max_deviation);
   ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+  // Corners where the teach run turned in place are turned at (corner_tolerance), not cut at ε.
+  EXPECT_LT(max_deviation, 0.2);
   EXPECT_EQ(out.command.linear, 0.0);
   EXPECT_EQ(out.command.angular, 0.0);
   EXPECT_LT(std::hypot(end.x - route.front().x, end.y - route.front().y), options.final_goal_tolerance + 0.01);

@@ -1,6 +1,6 @@
 // The closed loop in the simulator: planar_world_sim with drifting odometry (0.02 rad/m heading
 // bias, 2 % scale error), repeat_node localizing against a route taught in the same world
-// (make_sim_route), controller_node following it for one lap. Judged by the simulator's ground
+// (make_test_sim_route), controller_node following it for one lap. Judged by the simulator's ground
 // truth: the robot ends where it started (return_to_start) with the start heading, never strays
 // far from the taught path, and vision was used (poses from repeat_node throughout).
 #include <gtest/gtest.h>

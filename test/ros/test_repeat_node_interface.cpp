@@ -189,7 +189,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   EXPECT_EQ(p.covariance[14], 1e6);
 
   // A frame without a heading fix (an unrelated scene): the heading-aided odometry alone is still
-  // published, with a larger covariance, up to mu_max_unaided_distance (1 m) since the last fix.
+  // published, with a larger covariance, up to mu_max_unaided_distance (3 m) since the last fix.
   const double fixed_variance = p.covariance[0];
   auto unrelatedFrame = [&](double stamp, double odom_x) {
     for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
@@ -217,7 +217,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   unrelatedFrame(302.0, 5.5);
   ASSERT_EQ(poses.size(), poses_at_fix + 1) << "no unaided mu-mode pose 0.5 m after the fix";
   EXPECT_GT(poses.back().pose.covariance[0], fixed_variance);
-  unrelatedFrame(304.0, 7.0);  // 2 m since the fix
+  unrelatedFrame(304.0, 9.0);  // 4 m since the fix
   EXPECT_EQ(poses.size(), poses_at_fix + 1);
   EXPECT_EQ(reconfigureMode("fast_hd"), "fast_hd");
 }

@@ -76,7 +76,7 @@ class RepeatNode {
   bool publish_tf_ = false;
   double unobserved_variance_ = 1e6;
   int start_keyframe_ = 0;
-  double mu_max_unaided_distance_ = 1.0;  // [m]
+  double mu_max_unaided_distance_ = 3.0;  // [m]
   RepeatMode mode_ = RepeatMode::kFastHd;
   RepeatOptions options_;
 

@@ -2,7 +2,7 @@
 // same core: WaypointDriver on DifferentialDriveSim with perfect odometry, ending with a turn to
 // the start heading, WorldRenderer at 10 Hz, TeachSession with planes from odometry), for the
 // closed-loop rostest's fixture.
-//   make_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+//   make_test_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
 // The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
 #include <opencv2/core.hpp>
 
@@ -30,7 +30,7 @@ Eigen::Vector2d parsePoint(const std::string& text) {
 
 int main(int argc, char** argv) {
   if (argc < 6) {
-    std::cerr << "usage: make_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
+    std::cerr << "usage: make_test_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
     return 2;
   }
   try {
@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
               << report->planes << " with a plane\n";
     if (report->planes < report->keyframes) return 1;
   } catch (const std::exception& e) {
-    std::cerr << "make_sim_route: " << e.what() << "\n";
+    std::cerr << "make_test_sim_route: " << e.what() << "\n";
     return 1;
   }
   return 0;
