@@ -48,6 +48,7 @@ class OdometryGate {
   // Forget the reference (a new run, a relocalization ordered from outside).
   void reset();
   int refusedInARow() const { return candidates_; }
+  bool hasReference() const { return !accepted_.empty(); }
   const OdometryGateOptions& options() const { return options_; }
 
  private:

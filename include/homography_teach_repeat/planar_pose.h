@@ -48,7 +48,6 @@ struct Pose2D {
 // first (max_gap <= 0: never).
 bool isClosedLoop(const std::vector<Pose2D>& poses, double max_gap);
 
-
 // Camera-convention planar pose of MATH.md §1.1 (x right [m], z forward [m], theta = θ12 [rad]).
 struct PlanarPose {
   double x = 0.0;

@@ -283,16 +283,22 @@ void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
 void RepeatLocalizer::advanceTrackingTo(const Pose2D& robot) {
   if (!std::isfinite(robot.x) || !std::isfinite(robot.y)) return;
   // Move on while the robot is closer to the next keyframe than to the tracked one (on a closed
-  // route the keyframe after the last is the first; at most one lap per call).
+  // route the keyframe after the last is the first; at most one lap per call). "Closer" weighs
+  // the heading too (kHeadingWeight metres per radian): where the teach run turned in place the
+  // keyframes share a position, and tracking must follow the turn (in the simulator, μ against a
+  // corner keyframe 60-90° away from the robot's heading gave fixes 90° off).
+  constexpr double kHeadingWeight = 0.5;
+  auto distance = [&](const Pose2D& keyframe) {
+    return std::hypot(keyframe.x - robot.x, keyframe.y - robot.y) +
+           (std::isfinite(robot.yaw) ? kHeadingWeight * std::abs(wrapToPi(keyframe.yaw - robot.yaw)) : 0.0);
+  };
   const int n = keyframeCount();
   for (int steps = 0; steps < n; ++steps) {
     if (!closed_ && tracked_ + 1 >= n) break;
     const int following = (tracked_ + 1) % n;
     const Pose2D& here = keyframes_[static_cast<std::size_t>(tracked_)].base_pose;
     const Pose2D& next = keyframes_[static_cast<std::size_t>(following)].base_pose;
-    if (std::hypot(next.x - robot.x, next.y - robot.y) >= std::hypot(here.x - robot.x, here.y - robot.y)) {
-      break;
-    }
+    if (distance(next) >= distance(here)) break;
     tracked_ = following;
   }
 }

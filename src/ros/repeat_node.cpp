@@ -99,7 +99,17 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   mode_ = options.mode;
   options_ = options;
   heading_aided_ = HeadingAidedOdometry(readHeadingAidedOptions(private_nh));
-  if (readParameter(private_nh, "odometry_gate", true)) odometry_gate_.emplace(readGateOptions(private_nh));
+  if (readParameter(private_nh, "odometry_gate", true)) {
+    const OdometryGateOptions gate = readGateOptions(private_nh);
+    odometry_gate_.emplace(gate);
+    OdometryGateOptions mu_gate = gate;
+    mu_gate.switch_after = readParameter(private_nh, "mu_gate_switch_after", 20);
+    try {
+      mu_gate_.emplace(mu_gate);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("invalid parameter in " + private_nh.getNamespace() + ": " + e.what());
+    }
+  }
   if (!std::isfinite(mu_max_unaided_distance_) || mu_max_unaided_distance_ < 0.0) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("mu_max_unaided_distance") +
                              "' must be finite and >= 0");
@@ -251,6 +261,17 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
                               "against odometry (odometry_gate): %s", odom.status().toString().c_str());
     }
   }
+  if (!estimate->has_pose && mu_gate_ && heading_aided_.aligned()) {
+    // mu mode: the heading fix against the heading the odometry carries from the accepted fixes
+    // (a wrong line association gave fixes 38° and 97° off in the simulator).
+    const Status gated = checkMuFix(image->header.stamp.toSec(), *estimate);
+    if (!gated.isOk()) {
+      ++gated_;
+      fail(gated);
+      publishUnaidedMuPose(image->header);
+      return;
+    }
+  }
   initialized_ = true;
   last_status_ = Status::ok();
   last_inliers_ = estimate->inliers;
@@ -292,8 +313,24 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
     return;
   }
   localizer_->advanceTrackingTo(aided->first);
+  if (mu_gate_ && !mu_gate_->hasReference()) {
+    // The fix that aligned the odometry is the mu gate's first reference.
+    const auto odom = odometry_.poseNear(image->header.stamp.toSec(), kOdometryLagForGate);
+    if (odom) mu_gate_->check(aided->first, *odom);
+  }
   publishPose(image->header, aided->first, &aided->second);
   if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
+}
+
+Status RepeatNode::checkMuFix(double stamp, const RepeatEstimate& estimate) {
+  const auto odom = odometry_.poseNear(stamp, kOdometryLagForGate);
+  if (!odom) return Status::ok();  // headingAidedPose reports the missing odometry
+  const auto predicted = heading_aided_.routePose(*odom);
+  if (!predicted) return Status::ok();
+  const Pose2D& keyframe = localizer_->route().keyframes[static_cast<std::size_t>(estimate.keyframe)].pose;
+  // The position is the heading-aided odometry's own: only the heading can disagree.
+  return mu_gate_->check(Pose2D(predicted->x, predicted->y, wrapToPi(keyframe.yaw + estimate.heading_correction)),
+                         *odom);
 }
 
 void RepeatNode::publishUnaidedMuPose(const std_msgs::Header& image_header) {

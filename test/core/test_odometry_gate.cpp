@@ -82,6 +82,11 @@ TEST(OdometryGate, BadInput) {
   OdometryGate gate{OdometryGateOptions()};
   EXPECT_EQ(gate.check(Pose2D(NAN, 0, 0), Pose2D()).code(), StatusCode::kInvalidInput);
   EXPECT_EQ(gate.check(Pose2D(), Pose2D(0, INFINITY, 0)).code(), StatusCode::kInvalidInput);
+  EXPECT_FALSE(gate.hasReference());  // invalid input is never a reference
+  ASSERT_TRUE(gate.check(Pose2D(), Pose2D()).isOk());
+  EXPECT_TRUE(gate.hasReference());
+  gate.reset();
+  EXPECT_FALSE(gate.hasReference());
   OdometryGateOptions bad;
   bad.position_tolerance = 0.0;
   EXPECT_THROW(OdometryGate{bad}, std::invalid_argument);

@@ -104,6 +104,25 @@ TEST_F(RepeatLocalizerTest, MuModeTrackingFollowsAnExternalPosition) {
   EXPECT_EQ(localizer->trackedKeyframe(), localizer->keyframeCount() - 1);
 }
 
+// Where the teach run turned in place the keyframes share a position: tracking follows the heading.
+TEST_F(RepeatLocalizerTest, MuTrackingFollowsATurnInPlace) {
+  Route turning = route();
+  const Pose2D corner = turning.keyframes[2].pose;
+  for (int k = 3; k < 6; ++k) {
+    turning.keyframes[static_cast<std::size_t>(k)].pose = Pose2D(corner.x, corner.y, corner.yaw + 0.4 * (k - 2));
+  }
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.closed_route_gap = 0.0;
+  auto localizer = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  localizer->setTrackedKeyframe(2);
+  localizer->advanceTrackingTo(Pose2D(corner.x, corner.y, corner.yaw + 0.05));
+  EXPECT_EQ(localizer->trackedKeyframe(), 2);
+  localizer->advanceTrackingTo(Pose2D(corner.x, corner.y, corner.yaw + 0.85));
+  EXPECT_EQ(localizer->trackedKeyframe(), 4);
+}
+
 // A loop (last keyframe near the first): tracking wraps from the last keyframe to the first, so
 // a second lap is localized; an open route never wraps.
 TEST_F(RepeatLocalizerTest, ClosedRouteTrackingWrapsAround) {

@@ -219,6 +219,29 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   EXPECT_GT(poses.back().pose.covariance[0], fixed_variance);
   unrelatedFrame(304.0, 9.0);  // 4 m since the fix
   EXPECT_EQ(poses.size(), poses_at_fix + 1);
+
+  // A heading fix 0.15 rad away from the heading the odometry carries (the odometry did not turn)
+  // is refused by the mu gate, naming the odometry.
+  for (const double t : {305.9, 306.0, 306.1}) {
+    nav_msgs::Odometry odom;
+    odom.header.stamp = ros::Time(t);
+    odom.header.frame_id = "odom";
+    odom.pose.pose.position.x = 5.0;
+    odom.pose.pose.orientation.w = 1.0;
+    odom_pub.publish(odom);
+  }
+  ros::WallDuration(0.2).sleep();
+  ros::spinOnce();
+  auto turned = test_support::makeImage(
+      wall.imageAt(PlanarPose(camera_pose.x, camera_pose.z, camera_pose.theta + 0.15)), "mono8");
+  turned->header.stamp = ros::Time(306.0);
+  sensor_msgs::CameraInfo turned_info = syntheticCameraInfo();
+  turned_info.header = turned->header;
+  const std::size_t headings_before = headings.size();
+  camera.publish(*turned, turned_info);
+  ASSERT_TRUE(test_support::spinUntil([&] { return headings.size() > headings_before; }, 30.0));
+  EXPECT_FALSE(headings.back().ok);
+  EXPECT_NE(headings.back().status.find("odometry"), std::string::npos) << headings.back().status;
   EXPECT_EQ(reconfigureMode("fast_hd"), "fast_hd");
 }
 

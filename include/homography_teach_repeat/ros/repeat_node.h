@@ -62,6 +62,8 @@ class RepeatNode {
   // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
   // without odometry at that stamp.
   Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
+  // mu mode: the heading fix of `estimate` against the heading-aided odometry (mu_gate_).
+  Status checkMuFix(double stamp, const RepeatEstimate& estimate);
   // mu mode, the frame failed: the heading-aided odometry alone (its covariance keeps growing)
   // while the robot has travelled at most mu_max_unaided_distance since the last heading fix.
   void publishUnaidedMuPose(const std_msgs::Header& image_header);
@@ -86,6 +88,7 @@ class RepeatNode {
   OdometryBuffer odometry_;
   HeadingAidedOdometry heading_aided_;
   std::optional<OdometryGate> odometry_gate_;  // fast_hd/classic poses checked against odometry
+  std::optional<OdometryGate> mu_gate_;        // mu heading fixes checked against odometry
   Status last_status_{StatusCode::kInvalidInput, "no image received yet"};
   unsigned frames_ = 0, failures_ = 0, degraded_ = 0, gated_ = 0;
   int last_inliers_ = 0;
