@@ -85,18 +85,14 @@ void RouteFollower::setControllerParameters(const PotentialFieldParameters& para
 void RouteFollower::retune(const RouteFollowerOptions& options) {
   options.validate();
   setControllerParameters(options.controller);
-  options_.pose_timeout = options.pose_timeout;
-  options_.require_goal_heading = options.require_goal_heading;
-  options_.corner_radius = options.corner_radius;
-  options_.corner_tolerance = options.corner_tolerance;
-  options_.turn_in_place_angle = options.turn_in_place_angle;
-  options_.final_approach_distance = options.final_approach_distance;
-  options_.final_goal_tolerance = options.final_goal_tolerance;
-  options_.final_turn_angle = options.final_turn_angle;
-  options_.final_approach_gain = options.final_approach_gain;
-  options_.final_turn_gain = options.final_turn_gain;
-  options_.align_final_heading = options.align_final_heading;
-  options_.final_heading_tolerance = options.final_heading_tolerance;
+  // Everything but the goal sequence, which was unrolled at construction.
+  const RouteFollowerOptions kept = options_;
+  options_ = options;
+  options_.start_index = kept.start_index;
+  options_.end_index = kept.end_index;
+  options_.laps = kept.laps;
+  options_.return_to_start = kept.return_to_start;
+  options_.closed_route_gap = kept.closed_route_gap;
 }
 
 Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_offset) {

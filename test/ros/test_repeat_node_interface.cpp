@@ -20,6 +20,26 @@ using namespace homography_teach_repeat;
 
 using test_support::syntheticCameraInfo;
 
+namespace {
+
+// Odometry at `stamp` and 0.1 s either side (repeat_node interpolates it at the image stamp), then
+// a short spin so that it has arrived before the image.
+void publishOdometryAround(const ros::Publisher& publisher, double stamp, double x, double y = 0.0) {
+  for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
+    nav_msgs::Odometry odom;
+    odom.header.stamp = ros::Time(t);
+    odom.header.frame_id = "odom";
+    odom.pose.pose.position.x = x;
+    odom.pose.pose.position.y = y;
+    odom.pose.pose.orientation.w = 1.0;
+    publisher.publish(odom);
+  }
+  ros::WallDuration(0.2).sleep();
+  ros::spinOnce();
+}
+
+}  // namespace
+
 TEST(RepeatNode, PosesHeadingAndMarkers) {
   ros::NodeHandle nh;
   image_transport::ImageTransport it(nh);
@@ -160,16 +180,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   const double s = 1.0;
   const PlanarPose camera_pose(0.08 * s, s, 0.04 * s + 0.02);
   const Pose2D truth = cameraAxesToRep103(camera_pose);
-  for (const double t : {299.9, 300.0, 300.1}) {
-    nav_msgs::Odometry odom;
-    odom.header.stamp = ros::Time(t);
-    odom.header.frame_id = "odom";
-    odom.pose.pose.position.x = 5.0;  // the odometry frame of this run differs from the route's
-    odom.pose.pose.orientation.w = 1.0;
-    odom_pub.publish(odom);
-  }
-  ros::WallDuration(0.2).sleep();
-  ros::spinOnce();
+  publishOdometryAround(odom_pub, 300.0, 5.0);  // the odometry frame differs from the route's
   auto image = test_support::makeImage(wall.imageAt(camera_pose), "mono8");
   image->header.stamp = ros::Time(300.0);
   sensor_msgs::CameraInfo info = syntheticCameraInfo();
@@ -192,16 +203,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   // published, with a larger covariance, up to mu_max_unaided_distance (3 m) since the last fix.
   const double fixed_variance = p.covariance[0];
   auto unrelatedFrame = [&](double stamp, double odom_x) {
-    for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
-      nav_msgs::Odometry odom;
-      odom.header.stamp = ros::Time(t);
-      odom.header.frame_id = "odom";
-      odom.pose.pose.position.x = odom_x;
-      odom.pose.pose.orientation.w = 1.0;
-      odom_pub.publish(odom);
-    }
-    ros::WallDuration(0.2).sleep();
-    ros::spinOnce();
+    publishOdometryAround(odom_pub, stamp, odom_x);
     auto other = test_support::makeImage(test_support::makeTexture(640, 480, 77), "mono8");
     other->header.stamp = ros::Time(stamp);
     sensor_msgs::CameraInfo other_info = syntheticCameraInfo();
@@ -222,16 +224,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
 
   // A heading fix 0.15 rad away from the heading the odometry carries (the odometry did not turn)
   // is refused by the mu gate, naming the odometry.
-  for (const double t : {305.9, 306.0, 306.1}) {
-    nav_msgs::Odometry odom;
-    odom.header.stamp = ros::Time(t);
-    odom.header.frame_id = "odom";
-    odom.pose.pose.position.x = 5.0;
-    odom.pose.pose.orientation.w = 1.0;
-    odom_pub.publish(odom);
-  }
-  ros::WallDuration(0.2).sleep();
-  ros::spinOnce();
+  publishOdometryAround(odom_pub, 306.0, 5.0);
   auto turned = test_support::makeImage(
       wall.imageAt(PlanarPose(camera_pose.x, camera_pose.z, camera_pose.theta + 0.15)), "mono8");
   turned->header.stamp = ros::Time(306.0);
@@ -268,17 +261,7 @@ TEST(RepeatNode, OdometryGateRefusesAPoseOdometryContradicts) {
   ASSERT_EQ(reconfigureMode("fast_hd"), "fast_hd");
   const test_support::SyntheticWall wall;
   auto publishFrame = [&](double s, double stamp, double odom_x, double odom_y) {
-    for (const double t : {stamp - 0.1, stamp, stamp + 0.1}) {
-      nav_msgs::Odometry odom;
-      odom.header.stamp = ros::Time(t);
-      odom.header.frame_id = "odom";
-      odom.pose.pose.position.x = odom_x;
-      odom.pose.pose.position.y = odom_y;
-      odom.pose.pose.orientation.w = 1.0;
-      odom_pub.publish(odom);
-    }
-    ros::WallDuration(0.2).sleep();
-    ros::spinOnce();
+    publishOdometryAround(odom_pub, stamp, odom_x, odom_y);
     auto image = test_support::makeImage(wall.imageAt(PlanarPose(0.08 * s, s, 0.04 * s + 0.02)), "mono8");
     image->header.stamp = ros::Time(stamp);
     sensor_msgs::CameraInfo info = syntheticCameraInfo();
