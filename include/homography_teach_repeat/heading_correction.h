@@ -43,8 +43,13 @@ class HeadingCorrector {
   // Status: kTooFewPoints (fewer than 3 line matches: e.g. no vertical structure, or the lines of
   // the two images have opposite polarities), kNoConsensus (fewer than min_inliers agree),
   // or σ̂ > max_sigma_px), kDegenerate, kInvalidInput (non-finite lines).
+  // `predicted_theta` [rad] (e.g. from odometry): the reference lines are moved by that rotation
+  // before matching (guided matching: the matcher prefers small disparities, so a rotation of
+  // several degrees otherwise pairs lines with their neighbours and μ comes out too small — in
+  // the simulator 1.5° for a true 6.9°). The 1D homography is fitted to the original positions.
   Expected<HeadingCorrection> estimate(const std::vector<VerticalLine>& reference,
-                                       const std::vector<VerticalLine>& current) const;
+                                       const std::vector<VerticalLine>& current,
+                                       double predicted_theta = 0.0) const;
 
  private:
   HeadingCorrectionOptions options_;

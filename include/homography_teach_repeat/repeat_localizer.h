@@ -67,6 +67,17 @@ struct RepeatOptions {
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;
+  // mu mode: μ measures the heading only up to its translation coupling f·tx·cosφ/d (MATH.md
+  // §4.5): a lateral offset tx seen against a wall d away reads as a rotation of about tx/d. So
+  //  - keyframes the teach run reached turning in place (yaw changed by more than
+  //    kTurnKeyframeAngle + kTurnKeyframeRate · distance from the previous keyframe) give no
+  //    heading fix when `mu_skip_turn_keyframes`: at a corner the walls are about 1 m away and
+  //    such fixes were 5-12° off in the simulator with the robot within 3 cm of the keyframe;
+  //  - with a heading prior (localize()'s `predicted_yaw`), only keyframes whose yaw is within
+  //    `mu_max_reference_angle` [rad] of it are tried (a keyframe 60-90° away from the robot's
+  //    heading shares no lines with the image, and a wrong association gave fixes 90° off).
+  bool mu_skip_turn_keyframes = true;
+  double mu_max_reference_angle = 0.2;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -97,8 +108,10 @@ class RepeatLocalizer {
   static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
 
   // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the
-  // failure of the last reference tried (never a pose).
-  Expected<RepeatEstimate> localize(const cv::Mat& image);
+  // failure of the last reference tried (never a pose). mu mode: `predicted_yaw` (route frame,
+  // e.g. the heading-aided odometry's) restricts the references to those facing the same way
+  // (RepeatOptions::mu_max_reference_angle); ignored in the other modes and when not finite.
+  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<double> predicted_yaw = std::nullopt);
 
   // Start anywhere: tries every keyframe and tracks the one with most inliers.
   Expected<RepeatEstimate> initializeGlobally(const cv::Mat& image);
@@ -111,6 +124,9 @@ class RepeatLocalizer {
   int trackedKeyframe() const { return tracked_; }
   bool closedRoute() const { return closed_; }
   int keyframeCount() const { return static_cast<int>(keyframes_.size()); }
+  // mu mode: whether keyframe k was reached turning in place (gives no heading fix, see
+  // RepeatOptions::mu_skip_turn_keyframes). The first keyframe never is: the run starts there.
+  bool isTurnKeyframe(int keyframe) const;
   const Route& route() const { return route_; }
   const PinholeCamera& camera() const { return camera_; }
 
@@ -121,12 +137,17 @@ class RepeatLocalizer {
     Pose2D base_pose;                 // route frame
     std::optional<ScenePlane> plane;  // camera frame of this reference
     double heading_offset = 0.0;      // mu mode: yaw of this reference relative to its keyframe
+    bool turn = false;                // reached turning in place (isTurnKeyframe)
   };
+  // mu mode: whether a reference may give a heading fix to a robot heading `predicted_yaw`.
+  bool usableForMu(const Reference& reference, int keyframe, std::optional<double> predicted_yaw) const;
 
   RepeatLocalizer(const Route& route, const RepeatOptions& options);
+  // mu mode: `predicted_yaw` (route frame) guides the line matching (HeadingCorrector).
   Expected<RepeatEstimate> localizeAgainst(const Reference& reference, int keyframe,
                                            const ImageFeatures& features,
-                                           const std::vector<VerticalLine>& lines) const;
+                                           const std::vector<VerticalLine>& lines,
+                                           std::optional<double> predicted_yaw = std::nullopt) const;
   void advanceTracking(const RepeatEstimate& estimate);
   void restrictToPlaneFeatures();
   Status checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane, const PointMatches& matches,

@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/heading_correction.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -20,14 +21,32 @@ HeadingCorrector::HeadingCorrector(const HeadingCorrectionOptions& options,
   if (!valid.isOk()) throw std::invalid_argument("heading correction: " + valid.message());
 }
 
-Expected<HeadingCorrection> HeadingCorrector::estimate(
-    const std::vector<VerticalLine>& reference, const std::vector<VerticalLine>& current) const {
-  const auto matches = matchVerticalLines(reference, current, options_.matching);
+Expected<HeadingCorrection> HeadingCorrector::estimate(const std::vector<VerticalLine>& reference,
+                                                      const std::vector<VerticalLine>& current,
+                                                      double predicted_theta) const {
+  if (!std::isfinite(predicted_theta)) predicted_theta = 0.0;
+  // The reference lines where a pure rotation by predicted_theta puts them (MATH.md §4.4 with
+  // t = 0: x' = f (c x + f s)/(−s x + f c), centred), for the matcher only.
+  std::vector<VerticalLine> moved;
+  std::vector<int> original;  // index into `reference` of each moved line
+  const double c = std::cos(predicted_theta), s = std::sin(predicted_theta), f = camera_.f;
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    VerticalLine line = reference[i];
+    if (predicted_theta != 0.0) {
+      const double x = line.x - camera_.x0;
+      const double denominator = -s * x + f * c;
+      if (!(denominator > 0.0)) continue;  // behind the rotated camera
+      line.x = camera_.x0 + f * (c * x + f * s) / denominator;
+    }
+    moved.push_back(line);
+    original.push_back(static_cast<int>(i));
+  }
+  const auto matches = matchVerticalLines(moved, current, options_.matching);
   if (!matches) return matches.status();
   std::vector<LineCorrespondence> lines;
   lines.reserve(matches->size());
   for (const auto& m : *matches) {
-    lines.push_back({reference[static_cast<std::size_t>(m.reference)].x,
+    lines.push_back({reference[static_cast<std::size_t>(original[static_cast<std::size_t>(m.reference)])].x,
                      current[static_cast<std::size_t>(m.current)].x});
   }
   if (lines.size() < 3) {

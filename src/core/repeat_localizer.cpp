@@ -13,6 +13,12 @@
 namespace homography_teach_repeat {
 namespace {
 
+// A keyframe reached turning in place: its yaw differs from the previous keyframe's by more than
+// kTurnKeyframeAngle [rad] + kTurnKeyframeRate [rad/m] · their distance (driving a straight
+// segment, the teach run's heading varies by a few degrees over the keyframe spacing).
+constexpr double kTurnKeyframeAngle = 0.1;
+constexpr double kTurnKeyframeRate = 1.0;
+
 // The reference keyframe's yaw rotates the relative covariance into the route frame.
 Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double yaw) {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -61,6 +67,9 @@ void RepeatOptions::validate() const {
   if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
     throw std::invalid_argument("closed_route_gap must be finite and >= 0");
   }
+  if (!(mu_max_reference_angle > 0.0 && mu_max_reference_angle <= M_PI)) {
+    throw std::invalid_argument("mu_max_reference_angle must be in (0, pi]");
+  }
 }
 
 bool isClosedRoute(const Route& route, double max_gap) {
@@ -103,6 +112,12 @@ Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const Repe
         auto features = loadKeyframeFeatures(route, k);
         if (!features) return features.status();
         reference.features = std::move(*features);
+      }
+      if (k > 0) {
+        const Pose2D& previous = route.keyframes[k - 1].pose;
+        const Pose2D& here = route.keyframes[k].pose;
+        reference.turn = std::abs(wrapToPi(here.yaw - previous.yaw)) >
+                         kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(here.x - previous.x, here.y - previous.y);
       }
       localizer.keyframes_.push_back(std::move(reference));
     }
@@ -181,13 +196,17 @@ Status RepeatLocalizer::checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePl
 
 Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& reference, int keyframe,
                                                           const ImageFeatures& features,
-                                                          const std::vector<VerticalLine>& lines) const {
+                                                          const std::vector<VerticalLine>& lines,
+                                                          std::optional<double> predicted_yaw) const {
   RepeatEstimate estimate;
   estimate.mode = options_.mode;
   estimate.keyframe = keyframe;
   if (options_.mode == RepeatMode::kMu) {
     const HeadingCorrector corrector(options_.heading, LineCamera{camera_.fx(), camera_.cx()});
-    const auto correction = corrector.estimate(reference.lines, lines);
+    const double reference_yaw = route_.keyframes[static_cast<std::size_t>(keyframe)].pose.yaw + reference.heading_offset;
+    const double predicted_theta =
+        predicted_yaw && std::isfinite(*predicted_yaw) ? wrapToPi(*predicted_yaw - reference_yaw) : 0.0;
+    const auto correction = corrector.estimate(reference.lines, lines, predicted_theta);
     if (!correction) return correction.status();
     estimate.matches = correction->line_matches;
     estimate.inliers = correction->inliers;
@@ -303,7 +322,20 @@ void RepeatLocalizer::advanceTrackingTo(const Pose2D& robot) {
   }
 }
 
-Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image) {
+bool RepeatLocalizer::isTurnKeyframe(int keyframe) const {
+  return keyframe >= 0 && keyframe < keyframeCount() && keyframes_[static_cast<std::size_t>(keyframe)].turn;
+}
+
+bool RepeatLocalizer::usableForMu(const Reference& reference, int keyframe,
+                                  std::optional<double> predicted_yaw) const {
+  if (options_.mu_skip_turn_keyframes && reference.turn) return false;
+  if (!predicted_yaw || !std::isfinite(*predicted_yaw)) return true;
+  const double reference_yaw =
+      route_.keyframes[static_cast<std::size_t>(keyframe)].pose.yaw + reference.heading_offset;
+  return std::abs(wrapToPi(reference_yaw - *predicted_yaw)) <= options_.mu_max_reference_angle;
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<double> predicted_yaw) {
   if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
   if (image.cols != camera_.width() || image.rows != camera_.height()) {
     return Status(StatusCode::kInvalidInput,
@@ -337,8 +369,20 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image) {
     }
   }
   Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
+  if (options_.mode == RepeatMode::kMu) {
+    const auto unusable = [&](int k) {
+      return !usableForMu(keyframes_[static_cast<std::size_t>(k)], k, predicted_yaw);
+    };
+    candidates.erase(std::remove_if(candidates.begin(), candidates.end(), unusable), candidates.end());
+    if (candidates.empty()) {
+      last_failure = Status(StatusCode::kNoConsensus,
+                            "mu: no keyframe near " + std::to_string(tracked_) +
+                                " gives a heading fix here (turned in place, or facing more than " +
+                                std::to_string(options_.mu_max_reference_angle) + " rad away)");
+    }
+  }
   for (const int k : candidates) {
-    auto estimate = localizeAgainst(keyframes_[static_cast<std::size_t>(k)], k, features, lines);
+    auto estimate = localizeAgainst(keyframes_[static_cast<std::size_t>(k)], k, features, lines, predicted_yaw);
     if (!estimate) {
       last_failure = Status(estimate.status().code(),
                             "keyframe " + std::to_string(k) + ": " + estimate.status().message());
@@ -364,8 +408,10 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image) {
     advanceTracking(*estimate);
     return estimate;
   }
-  if (temporary_ && degraded_frames_ < options_.max_degraded_frames) {
-    auto estimate = localizeAgainst(*temporary_, temporary_keyframe_, features, lines);
+  const bool temporary_usable =
+      temporary_ && (options_.mode != RepeatMode::kMu || usableForMu(*temporary_, temporary_keyframe_, predicted_yaw));
+  if (temporary_usable && degraded_frames_ < options_.max_degraded_frames) {
+    auto estimate = localizeAgainst(*temporary_, temporary_keyframe_, features, lines, predicted_yaw);
     if (estimate) {
       estimate->degraded = true;
       ++degraded_frames_;

@@ -120,5 +120,20 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform) {
   return iso;
 }
 
+Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
+                                        const std::string& camera_frame, double max_tilt_rad) {
+  geometry_msgs::TransformStamped mount;
+  try {
+    mount = tf_buffer.lookupTransform(base_frame, camera_frame, ros::Time(0), ros::Duration(0.5));
+  } catch (const tf2::TransformException& e) {
+    return Status(StatusCode::kInvalidInput, "no tf " + base_frame + " -> " + camera_frame + ": " + e.what());
+  }
+  try {
+    return CameraMount::fromExtrinsic(toIsometry(mount.transform), max_tilt_rad);
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, std::string("camera mount: ") + e.what());
+  }
+}
+
 }  // namespace ros_conversions
 }  // namespace homography_teach_repeat

@@ -33,6 +33,8 @@ RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
     options.max_degraded_frames = readParameter(nh, "max_degraded_frames", options.max_degraded_frames);
     options.max_plane_residual_px = readParameter(nh, "max_plane_residual", options.max_plane_residual_px);
     options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
+    options.mu_skip_turn_keyframes = readParameter(nh, "mu_skip_turn_keyframes", options.mu_skip_turn_keyframes);
+    options.mu_max_reference_angle = readParameter(nh, "mu_max_reference_angle", options.mu_max_reference_angle);
     options.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
@@ -241,7 +243,7 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   }
   const auto cv_image = ros_conversions::toCvImage(image);
   if (!cv_image) return fail(cv_image.status());
-  const auto estimate = initialized_ ? localizer_->localize(*cv_image)
+  const auto estimate = initialized_ ? localizer_->localize(*cv_image, predictedMuYaw(image->header.stamp.toSec()))
                                      : localizer_->initializeGlobally(*cv_image);
   if (!estimate) {
     fail(estimate.status());
@@ -320,6 +322,15 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   }
   publishPose(image->header, aided->first, &aided->second);
   if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
+}
+
+std::optional<double> RepeatNode::predictedMuYaw(double stamp) {
+  if (mode_ != RepeatMode::kMu || !heading_aided_.aligned()) return std::nullopt;
+  const auto odom = odometry_.poseNear(stamp, kOdometryLagForGate);
+  if (!odom) return std::nullopt;
+  const auto predicted = heading_aided_.routePose(*odom);
+  if (!predicted) return std::nullopt;
+  return predicted->yaw;
 }
 
 Status RepeatNode::checkMuFix(double stamp, const RepeatEstimate& estimate) {

@@ -95,22 +95,10 @@ void TeachNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 Status TeachNode::startSession(const sensor_msgs::CameraInfo& camera_info) {
   const auto camera = ros_conversions::toPinholeCamera(camera_info);
   if (!camera) return camera.status();
-  geometry_msgs::TransformStamped mount;
-  try {
-    mount = tf_buffer_.lookupTransform(base_frame_, camera_info.header.frame_id, ros::Time(0),
-                                       ros::Duration(0.5));
-  } catch (const tf2::TransformException& e) {
-    return Status(StatusCode::kInvalidInput, "no tf " + base_frame_ + " -> " +
-                                                 camera_info.header.frame_id + ": " + e.what());
-  }
-  Pose2D mount_pose;
-  try {
-    const CameraMount camera_mount =
-        CameraMount::fromExtrinsic(ros_conversions::toIsometry(mount.transform), max_camera_tilt_rad_);
-    mount_pose = camera_mount.forwardFrame();
-  } catch (const std::invalid_argument& e) {
-    return Status(StatusCode::kInvalidInput, std::string("camera mount: ") + e.what());
-  }
+  const auto mount = ros_conversions::lookupCameraMount(tf_buffer_, base_frame_, camera_info.header.frame_id,
+                                                       max_camera_tilt_rad_);
+  if (!mount) return mount.status();
+  const Pose2D mount_pose = mount->forwardFrame();
   auto session = TeachSession::start(options_, camera->calibration(), mount_pose);
   if (!session) return session.status();
   session_.emplace(std::move(*session));

@@ -16,8 +16,16 @@ constexpr double kX0 = 319.5;
 
 // A textured "wall" of vertical bands of random grey, seen by a camera that yaws by `theta`
 // (exact image warp by K R K⁻¹).
-cv::Mat wallImage(double theta) {
-  static const cv::Mat texture = [] {
+cv::Mat wallImage(double theta, bool periodic = false) {
+  // Periodic: the same 36 px pair of bands repeated, so every line has a twin 36 px away.
+  static const cv::Mat periodic_texture = [] {
+    cv::Mat t(480, 1600, CV_8UC1, cv::Scalar(200));
+    for (int x = 0; x < t.cols; x += 36) t.colRange(x, std::min(t.cols, x + 18)).setTo(60);
+    t.rowRange(0, 60).setTo(128);
+    t.rowRange(420, 480).setTo(128);
+    return t;
+  }();
+  static const cv::Mat random_texture = [] {
     std::mt19937 rng(4);
     std::uniform_int_distribution<int> grey(20, 235), width(12, 40);
     cv::Mat t(480, 1600, CV_8UC1);
@@ -31,6 +39,7 @@ cv::Mat wallImage(double theta) {
     t.rowRange(420, 480).setTo(128);
     return t;
   }();
+  const cv::Mat& texture = periodic ? periodic_texture : random_texture;
   const cv::Matx33d K(kF, 0, kX0, 0, kF, 239.5, 0, 0, 1);
   // The texture is a fronto-parallel wall imaged with the same K, centred 480 px to the right.
   const cv::Matx33d shift(1, 0, -480, 0, 1, 0, 0, 0, 1);
@@ -65,6 +74,32 @@ TEST(HeadingCorrection, RecoversYawAndCalibratesFocalLength) {
   const auto fit = fitFocalFromMu(samples);
   ASSERT_TRUE(fit.isOk());
   EXPECT_NEAR(fit->f, kF, 0.02 * kF);
+}
+
+// Guided matching: on a wall whose lines repeat every 36 px, a yaw of 8° (≈ 70 px, two periods)
+// pairs each line with a twin unless the matcher knows roughly how far the image turned; with a
+// prediction 1.5° off (odometry), μ gives the yaw.
+TEST(HeadingCorrection, PredictedRotationGuidesTheMatching) {
+  VerticalLineExtractor extractor;
+  const auto reference = *extractor.extract(wallImage(0.0, true));
+  ASSERT_GE(reference.size(), 15u);
+  const HeadingCorrector corrector(HeadingCorrectionOptions(), LineCamera{kF, kX0});
+  for (const double degrees : {-8.0, 8.0}) {
+    const double theta = degrees * M_PI / 180.0;
+    const auto current = *extractor.extract(wallImage(theta, true));
+    const auto guided = corrector.estimate(reference, current, theta - std::copysign(1.5, degrees) * M_PI / 180.0);
+    ASSERT_TRUE(guided.isOk()) << degrees << ": " << guided.status().toString();
+    EXPECT_NEAR(guided->theta, theta, 0.1 * M_PI / 180.0) << degrees;
+    const auto unguided = corrector.estimate(reference, current);
+    if (unguided) {
+      EXPECT_GT(std::abs(unguided->theta - theta), 1.0 * M_PI / 180.0) << degrees << ": the twins were matched";
+    }
+  }
+  // A non-finite prediction is no prediction.
+  const auto current = *extractor.extract(wallImage(0.01, true));
+  const auto plain = corrector.estimate(reference, current, NAN);
+  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
+  EXPECT_NEAR(plain->theta, 0.01, 0.1 * M_PI / 180.0);
 }
 
 TEST(HeadingCorrection, FailureStatuses) {

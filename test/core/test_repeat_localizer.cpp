@@ -123,6 +123,58 @@ TEST_F(RepeatLocalizerTest, MuTrackingFollowsATurnInPlace) {
   EXPECT_EQ(localizer->trackedKeyframe(), 4);
 }
 
+// μ mode: keyframes the teach run took turning in place give no heading fix (MATH.md §4.5: the
+// translation coupling is large against the near walls of a corner); the first keyframe never
+// counts as one.
+TEST_F(RepeatLocalizerTest, MuModeSkipsTurnKeyframes) {
+  Route turning = route();
+  const Pose2D corner = turning.keyframes[2].pose;
+  turning.keyframes[3].pose = Pose2D(corner.x, corner.y, corner.yaw + 0.4);
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.neighbour_search = 0;
+  options.closed_route_gap = 0.0;
+  auto localizer = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  EXPECT_FALSE(localizer->isTurnKeyframe(0));
+  EXPECT_FALSE(localizer->isTurnKeyframe(2));
+  EXPECT_TRUE(localizer->isTurnKeyframe(3));
+  const PlanarPose camera = rep103ToCameraAxes(turning.keyframes[2].pose);
+  localizer->setTrackedKeyframe(3);
+  const auto skipped = localizer->localize(wall_->imageAt(camera));
+  ASSERT_FALSE(skipped.isOk());
+  EXPECT_EQ(skipped.status().code(), StatusCode::kNoConsensus);
+  EXPECT_NE(skipped.status().message().find("turned in place"), std::string::npos) << skipped.status().toString();
+  options.mu_skip_turn_keyframes = false;
+  auto all = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(all.isOk());
+  all->setTrackedKeyframe(2);
+  EXPECT_TRUE(all->localize(wall_->imageAt(camera)).isOk());
+}
+
+// μ mode with the heading the odometry predicts: only keyframes facing that way are tried.
+TEST_F(RepeatLocalizerTest, MuModeTriesOnlyKeyframesFacingThePredictedHeading) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.neighbour_search = 0;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Pose2D keyframe = localizer->route().keyframes[2].pose;
+  const PlanarPose camera = rep103ToCameraAxes(keyframe);
+  const PlanarPose turned(camera.x, camera.z, camera.theta + 0.03);
+  const cv::Mat image = wall_->imageAt(turned);
+  localizer->setTrackedKeyframe(2);
+  const auto near = localizer->localize(image, keyframe.yaw + 0.03);
+  ASSERT_TRUE(near.isOk()) << near.status().toString();
+  EXPECT_NEAR(near->heading_correction, 0.03, 0.15 * M_PI / 180.0);
+  const auto far = localizer->localize(image, keyframe.yaw + 0.5);
+  ASSERT_FALSE(far.isOk());
+  EXPECT_EQ(far.status().code(), StatusCode::kNoConsensus);
+  EXPECT_TRUE(localizer->localize(image, NAN).isOk());  // no usable prior: every keyframe
+  options.mu_max_reference_angle = 0.0;
+  EXPECT_FALSE(RepeatLocalizer::create(route(), options).isOk());
+}
+
 // A loop (last keyframe near the first): tracking wraps from the last keyframe to the first, so
 // a second lap is localized; an open route never wraps.
 TEST_F(RepeatLocalizerTest, ClosedRouteTrackingWrapsAround) {

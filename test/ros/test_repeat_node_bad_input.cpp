@@ -104,10 +104,10 @@ TEST(RepeatNode, RouteProblemsStopTheStartNamingTheFile) {
   expectStartFails<RepeatNode>("~corrupt", "format_version");
   std::filesystem::remove_all(corrupt);
 
-  nh.setParam("bad_mode/route_directory", "/tmp/htr_repeat_node_test_route");
+  nh.setParam("bad_mode/route_directory", (std::filesystem::temp_directory_path() / "htr_repeat_node_test_route").string());
   nh.setParam("bad_mode/mode", "teleport");
   expectStartFails<RepeatNode>("~bad_mode", "fast_hd");
-  nh.setParam("bad_start/route_directory", "/tmp/htr_repeat_node_test_route");
+  nh.setParam("bad_start/route_directory", (std::filesystem::temp_directory_path() / "htr_repeat_node_test_route").string());
   nh.setParam("bad_start/start_keyframe", 99);
   expectStartFails<RepeatNode>("~bad_start", "start_keyframe");
 }

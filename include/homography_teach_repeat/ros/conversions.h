@@ -7,8 +7,11 @@
 #include <geometry_msgs/Transform.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <tf2_ros/buffer.h>
 
 #include <opencv2/core.hpp>
+
+#include <string>
 
 #include "homography_teach_repeat/HomographyStamped.h"
 #include "homography_teach_repeat/pinhole_camera.h"
@@ -39,6 +42,12 @@ geometry_msgs::Quaternion yawQuaternion(double yaw);
 
 // geometry_msgs transform -> Eigen isometry.
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform);
+
+// The camera mount from tf (base_frame -> camera_frame, waiting up to 0.5 s): kInvalidInput naming
+// the frames when there is no transform, or the measured tilt when the camera is not level within
+// max_tilt_rad (CameraMount::fromExtrinsic).
+Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
+                                        const std::string& camera_frame, double max_tilt_rad);
 
 HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,
                         const std_msgs::Header& header, const std::string& reference);

@@ -62,6 +62,9 @@ class RepeatNode {
   // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
   // without odometry at that stamp.
   Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
+  // mu mode: the heading the heading-aided odometry predicts at `stamp` (the localizer tries only
+  // keyframes facing that way); nullopt before the first fix or without odometry.
+  std::optional<double> predictedMuYaw(double stamp);
   // mu mode: the heading fix of `estimate` against the heading-aided odometry (mu_gate_).
   Status checkMuFix(double stamp, const RepeatEstimate& estimate);
   // mu mode, the frame failed: the heading-aided odometry alone (its covariance keeps growing)

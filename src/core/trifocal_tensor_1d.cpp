@@ -1,0 +1,329 @@
+#include "homography_teach_repeat/trifocal_tensor_1d.h"
+
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+#include <cmath>
+#include <string>
+
+namespace homography_teach_repeat {
+namespace {
+
+// A null space of more than one dimension: the second smallest singular value is below this
+// fraction of the largest (exact data of a degenerate configuration gives ~1e-16).
+constexpr double kRankTolerance = 1e-9;
+// Cofactors of a minimal sample above this fraction of the product of its row norms: the null
+// vector is well determined and the SVD is not needed.
+constexpr double kCofactorConfidence = 1e-11;
+
+// Unit bearings of a triplet; false for a non-finite or zero bearing.
+bool normalised(const BearingTriplet& in, BearingTriplet* out) {
+  const Bearing* views[3] = {&in.first, &in.second, &in.third};
+  Bearing* outs[3] = {&out->first, &out->second, &out->third};
+  for (int v = 0; v < 3; ++v) {
+    const double norm = views[v]->norm();
+    if (!views[v]->allFinite() || !(norm > 0.0)) return false;
+    *outs[v] = *views[v] / norm;
+  }
+  return true;
+}
+
+Expected<std::vector<BearingTriplet>> normalisedTriplets(const std::vector<BearingTriplet>& triplets) {
+  std::vector<BearingTriplet> out(triplets.size());
+  for (std::size_t n = 0; n < triplets.size(); ++n) {
+    if (!normalised(triplets[n], &out[n])) {
+      return Status(StatusCode::kInvalidInput, "bearing triplet " + std::to_string(n) + " is not finite or zero");
+    }
+  }
+  return out;
+}
+
+// Eq. 3: the 8 coefficients u_i u'_j u''_k of one triplet, in T order.
+Eigen::Matrix<double, 1, 8> trilinearRow(const BearingTriplet& t) {
+  Eigen::Matrix<double, 1, 8> row;
+  for (int i = 1; i <= 2; ++i) {
+    for (int j = 1; j <= 2; ++j) {
+      for (int k = 1; k <= 2; ++k) row(tensorIndex(i, j, k)) = t.first(i - 1) * t.second(j - 1) * t.third(k - 1);
+    }
+  }
+  return row;
+}
+
+// Eq. 7 (MATH.md §5.3): eq. 2 with T221 = T111 − T122 − T212 and T222 = T112 + T121 + T211
+// substituted; unknowns (T111, T112, T121, T122, T211, T212).
+Eigen::Matrix<double, 1, 6> tt5Row(const BearingTriplet& t) {
+  const double u1 = t.first(0), u2 = t.first(1), a1 = t.second(0), a2 = t.second(1), b1 = t.third(0),
+               b2 = t.third(1);
+  Eigen::Matrix<double, 1, 6> row;
+  row << u1 * a1 * b1 + u2 * a2 * b1, u1 * a1 * b2 + u2 * a2 * b2, u1 * a2 * b1 + u2 * a2 * b2,
+      u1 * a2 * b2 - u2 * a2 * b1, u2 * a1 * b1 + u2 * a2 * b2, u2 * a1 * b2 - u2 * a2 * b1;
+  return row;
+}
+
+// The null vector of a K x (K+1) matrix (a minimal sample) by cofactors: x_i = (−1)^i det(A
+// without column i) — 10x faster than an SVD in RANSAC's inner loop. kDegenerate when every
+// cofactor vanishes (rank < K).
+template <int K>
+Expected<Eigen::VectorXd> minimalNullVector(const Eigen::MatrixXd& A_dynamic, const char* what) {
+  const Eigen::Matrix<double, K, K + 1> A = A_dynamic;
+  Eigen::Matrix<double, K + 1, 1> x;
+  double scale = 1.0;
+  for (int r = 0; r < K; ++r) scale *= A.row(r).norm();
+  for (int i = 0; i <= K; ++i) {
+    Eigen::Matrix<double, K, K> minor;
+    for (int c = 0, m = 0; c <= K; ++c) {
+      if (c != i) minor.col(m++) = A.col(c);
+    }
+    x(i) = ((i % 2) ? -1.0 : 1.0) * minor.partialPivLu().determinant();
+  }
+  // Small cofactors do not tell an ill-conditioned sample from a rank-deficient one: those go to
+  // the SVD (nullVector), which decides on the singular values.
+  if (!x.allFinite() || !(x.norm() > kCofactorConfidence * scale)) return Status(StatusCode::kDegenerate, what);
+  return Eigen::VectorXd(x / x.norm());
+}
+
+// The null vector of A (rows >= unknowns − 1); kDegenerate when the null space has more than one
+// dimension.
+Expected<Eigen::VectorXd> nullVector(const Eigen::MatrixXd& A, const char* what) {
+  if (A.rows() + 1 == A.cols() && (A.cols() == 4 || A.cols() == 6 || A.cols() == 8)) {
+    const auto x = A.cols() == 4 ? minimalNullVector<3>(A, what)
+                                 : (A.cols() == 6 ? minimalNullVector<5>(A, what) : minimalNullVector<7>(A, what));
+    if (x) return x;
+  }
+  const Eigen::Index unknowns = A.cols();
+  Eigen::MatrixXd padded = A;
+  if (A.rows() < unknowns) {  // JacobiSVD's V is complete only for at least as many rows as columns
+    padded = Eigen::MatrixXd::Zero(unknowns, unknowns);
+    padded.topRows(A.rows()) = A;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(padded, Eigen::ComputeFullV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  if (!sv.allFinite()) return Status(StatusCode::kNotFinite, std::string(what) + ": SVD is not finite");
+  if (!(sv(unknowns - 2) > kRankTolerance * sv(0))) {
+    return Status(StatusCode::kDegenerate,
+                  std::string(what) +
+                      ": the system has more than one solution (identical views, coincident camera centres or "
+                      "repeated bearings)");
+  }
+  return Eigen::VectorXd(svd.matrixV().col(unknowns - 1));
+}
+
+// Angle between two bearings modulo π, in [0, π/2].
+double angleModPi(const Bearing& a, const Bearing& b) {
+  const double d = std::atan2(a(0), a(1)) - std::atan2(b(0), b(1));
+  return std::abs(std::remainder(d, M_PI));
+}
+
+}  // namespace
+
+Bearing bearingFromAngle(double alpha) { return Bearing(std::sin(alpha), std::cos(alpha)); }
+
+Bearing bearingFromPixel(double x, double f, double u0) {
+  const Bearing u(x - u0, f);
+  return u / u.norm();
+}
+
+double bearingAngle(const Bearing& u) { return std::atan2(u(0), u(1)); }
+
+TrifocalTensor1d calibrateTensor(const TrifocalTensor1d& pixel_tensor, double f, double u0) {
+  Eigen::Matrix2d K;
+  K << f, u0, 0.0, 1.0;
+  TrifocalTensor1d calibrated = TrifocalTensor1d::Zero();
+  for (int l = 1; l <= 2; ++l) {
+    for (int m = 1; m <= 2; ++m) {
+      for (int n = 1; n <= 2; ++n) {
+        double sum = 0.0;
+        for (int i = 1; i <= 2; ++i) {
+          for (int j = 1; j <= 2; ++j) {
+            for (int k = 1; k <= 2; ++k) {
+              sum += pixel_tensor(tensorIndex(i, j, k)) * K(i - 1, l - 1) * K(j - 1, m - 1) * K(k - 1, n - 1);
+            }
+          }
+        }
+        calibrated(tensorIndex(l, m, n)) = sum;
+      }
+    }
+  }
+  return calibrated;
+}
+
+Eigen::Vector2d calibrationResidual(const TrifocalTensor1d& T) {
+  return Eigen::Vector2d(-T(0) + T(3) + T(5) + T(6), T(1) + T(2) + T(4) - T(7));
+}
+
+double trilinearResidual(const TrifocalTensor1d& T, const BearingTriplet& triplet) {
+  BearingTriplet unit;
+  if (!normalised(triplet, &unit) || !(T.norm() > 0.0)) return INFINITY;
+  return trilinearRow(unit).dot(T) / T.norm();
+}
+
+Bearing transferBearing(const TrifocalTensor1d& T, const BearingTriplet& triplet, int view) {
+  // MATH.md §5.4 with T_i = [[T_i11, T_i12], [T_i21, T_i22]].
+  const Bearing& u = triplet.first;
+  const Bearing& a = triplet.second;
+  const Bearing& b = triplet.third;
+  auto t = [&](int i, int j, int k) { return T(tensorIndex(i, j, k)); };
+  double numerator = 0.0, denominator = 0.0;
+  for (int p = 1; p <= 2; ++p) {
+    for (int q = 1; q <= 2; ++q) {
+      if (view == 1) {
+        numerator += t(2, p, q) * a(p - 1) * b(q - 1);
+        denominator += t(1, p, q) * a(p - 1) * b(q - 1);
+      } else if (view == 2) {
+        numerator += t(p, 2, q) * u(p - 1) * b(q - 1);
+        denominator += t(p, 1, q) * u(p - 1) * b(q - 1);
+      } else {
+        numerator += t(p, q, 2) * u(p - 1) * a(q - 1);
+        denominator += t(p, q, 1) * u(p - 1) * a(q - 1);
+      }
+    }
+  }
+  return Bearing(-numerator, denominator);
+}
+
+double transferAngleError(const TrifocalTensor1d& T, const BearingTriplet& triplet, int view) {
+  const Bearing predicted = transferBearing(T, triplet, view);
+  const Bearing& measured = view == 1 ? triplet.first : (view == 2 ? triplet.second : triplet.third);
+  if (!predicted.allFinite() || !(predicted.norm() > 0.0) || !measured.allFinite()) return INFINITY;
+  return angleModPi(predicted, measured);
+}
+
+double transferError(const TrifocalTensor1d& T, const BearingTriplet& triplet) {
+  double worst = 0.0;
+  for (int view = 1; view <= 3; ++view) worst = std::max(worst, transferAngleError(T, triplet, view));
+  return worst;
+}
+
+bool transferErrorBelow(const TrifocalTensor1d& T, const BearingTriplet& triplet, double threshold) {
+  const double sine = std::sin(threshold);
+  const double sine_squared = sine * sine;
+  for (int view = 1; view <= 3; ++view) {
+    const Bearing p = transferBearing(T, triplet, view);
+    const Bearing& m = view == 1 ? triplet.first : (view == 2 ? triplet.second : triplet.third);
+    const double cross = p(0) * m(1) - p(1) * m(0);
+    // |sin Δ| < sin(threshold) ⇔ Δ within the threshold modulo π; false for non-finite values.
+    if (!(cross * cross < sine_squared * p.squaredNorm() * m.squaredNorm())) return false;
+  }
+  return true;
+}
+
+Expected<TrifocalTensor1d> estimateTT7(const std::vector<BearingTriplet>& triplets) {
+  if (triplets.size() < 7) {
+    return Status(StatusCode::kTooFewPoints, "TT7 needs 7 bearing triplets, got " + std::to_string(triplets.size()));
+  }
+  const auto unit = normalisedTriplets(triplets);
+  if (!unit) return unit.status();
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(unit->size()), 8);
+  for (std::size_t n = 0; n < unit->size(); ++n) A.row(static_cast<Eigen::Index>(n)) = trilinearRow((*unit)[n]);
+  const auto x = nullVector(A, "TT7");
+  if (!x) return x.status();
+  return TrifocalTensor1d(*x);
+}
+
+Expected<TrifocalTensor1d> estimateTT5(const std::vector<BearingTriplet>& triplets) {
+  if (triplets.size() < 5) {
+    return Status(StatusCode::kTooFewPoints, "TT5 needs 5 bearing triplets, got " + std::to_string(triplets.size()));
+  }
+  const auto unit = normalisedTriplets(triplets);
+  if (!unit) return unit.status();
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(unit->size()), 6);
+  for (std::size_t n = 0; n < unit->size(); ++n) A.row(static_cast<Eigen::Index>(n)) = tt5Row((*unit)[n]);
+  const auto x = nullVector(A, "TT5");
+  if (!x) return x.status();
+  const Eigen::VectorXd& s = *x;
+  TrifocalTensor1d T;
+  T << s(0), s(1), s(2), s(3), s(4), s(5), s(0) - s(3) - s(5), s(1) + s(2) + s(4);
+  return TrifocalTensor1d(T / T.norm());
+}
+
+Expected<Eigen::Matrix2d> estimateBearingHomography(const std::vector<Bearing>& from, const std::vector<Bearing>& to) {
+  if (from.size() != to.size()) {
+    return Status(StatusCode::kInvalidInput, "1D homography: " + std::to_string(from.size()) + " bearings to " +
+                                                 std::to_string(to.size()));
+  }
+  if (from.size() < 3) {
+    return Status(StatusCode::kTooFewPoints, "1D homography needs 3 bearing pairs, got " + std::to_string(from.size()));
+  }
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(from.size()), 4);
+  for (std::size_t n = 0; n < from.size(); ++n) {
+    if (!from[n].allFinite() || !to[n].allFinite() || !(from[n].norm() > 0.0) || !(to[n].norm() > 0.0)) {
+      return Status(StatusCode::kInvalidInput, "1D homography: bearing " + std::to_string(n) + " is not finite or zero");
+    }
+    const Bearing u = from[n].normalized();
+    const Bearing v = to[n].normalized();
+    A.row(static_cast<Eigen::Index>(n)) << -v(1) * u(0), -v(1) * u(1), v(0) * u(0), v(0) * u(1);
+  }
+  const auto h = nullVector(A, "1D homography");
+  if (!h) return h.status();
+  Eigen::Matrix2d H;
+  H << (*h)(0), (*h)(1), (*h)(2), (*h)(3);
+  return H;
+}
+
+double bearingHomographyError(const Eigen::Matrix2d& H, const Bearing& from, const Bearing& to) {
+  const Bearing mapped = H * from;
+  if (!mapped.allFinite() || !(mapped.norm() > 0.0) || !to.allFinite()) return INFINITY;
+  return angleModPi(mapped, to);
+}
+
+Expected<TrifocalTensor1d> estimateTT4(const Eigen::Matrix2d& H_second, const Eigen::Matrix2d& H_third,
+                                       const std::vector<BearingTriplet>& off_plane) {
+  if (off_plane.empty()) {
+    return Status(StatusCode::kTooFewPoints, "TT4 needs a bearing triplet off the plane");
+  }
+  if (!H_second.allFinite() || !H_third.allFinite()) {
+    return Status(StatusCode::kInvalidInput, "TT4: the plane's 1D homographies are not finite");
+  }
+  const auto unit = normalisedTriplets(off_plane);
+  if (!unit) return unit.status();
+  // Eq. 12 (MATH.md §5.5): B_i = H'ᵀ T_i H'', B_i(a, b) = Σ_jk H'(j, a) T_ijk H''(k, b).
+  auto b = [&](int i, int a, int c) {
+    Eigen::Matrix<double, 1, 8> row = Eigen::Matrix<double, 1, 8>::Zero();
+    for (int j = 1; j <= 2; ++j) {
+      for (int k = 1; k <= 2; ++k) row(tensorIndex(i, j, k)) = H_second(j - 1, a - 1) * H_third(k - 1, c - 1);
+    }
+    return row;
+  };
+  Eigen::MatrixXd A(6 + static_cast<Eigen::Index>(unit->size()), 8);
+  A.row(0) = b(2, 1, 1) + b(1, 2, 1) + b(1, 1, 2);
+  A.row(1) = b(1, 1, 1);
+  A.row(2) = b(1, 2, 2) + b(2, 2, 1) + b(2, 1, 2);
+  A.row(3) = b(2, 2, 2);
+  for (int r = 0; r < 4; ++r) {
+    const double norm = A.row(r).norm();
+    if (!(norm > 0.0)) return Status(StatusCode::kDegenerate, "TT4: a plane constraint vanishes (singular homography)");
+    A.row(r) /= norm;
+  }
+  A.row(4) << -1, 0, 0, 1, 0, 1, 1, 0;  // eq. 6
+  A.row(5) << 0, 1, 1, 0, 1, 0, 0, -1;
+  A.topRows(6).bottomRows(2) /= 2.0;
+  for (std::size_t n = 0; n < unit->size(); ++n) {
+    const Eigen::Matrix<double, 1, 8> row = trilinearRow((*unit)[n]);
+    A.row(6 + static_cast<Eigen::Index>(n)) = row / row.norm();
+  }
+  const auto x = nullVector(A, "TT4");
+  if (!x) return x.status();
+  return TrifocalTensor1d(*x);
+}
+
+Expected<TrifocalTensor1d> estimateTT4(const std::vector<BearingTriplet>& on_plane,
+                                       const std::vector<BearingTriplet>& off_plane) {
+  std::vector<Bearing> first, second, third;
+  for (const auto& t : on_plane) {
+    first.push_back(t.first);
+    second.push_back(t.second);
+    third.push_back(t.third);
+  }
+  const auto H_second = estimateBearingHomography(first, second);
+  if (!H_second) return Status(H_second.status().code(), "TT4, plane view 1 -> 2: " + H_second.status().message());
+  const auto H_third = estimateBearingHomography(first, third);
+  if (!H_third) return Status(H_third.status().code(), "TT4, plane view 1 -> 3: " + H_third.status().message());
+  if (off_plane.empty()) return Status(StatusCode::kTooFewPoints, "TT4 needs a bearing triplet off the plane");
+  // The plane's triplets satisfy the trilinear constraint too: with their rows the system uses
+  // every match (the homographies alone would leave their noise unaveraged).
+  std::vector<BearingTriplet> all = off_plane;
+  all.insert(all.end(), on_plane.begin(), on_plane.end());
+  return estimateTT4(*H_second, *H_third, all);
+}
+
+}  // namespace homography_teach_repeat
