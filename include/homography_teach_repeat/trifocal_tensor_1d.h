@@ -88,7 +88,10 @@ double bearingHomographyError(const Eigen::Matrix2d& H, const Bearing& from, con
 Expected<TrifocalTensor1d> estimateTT4(const Eigen::Matrix2d& H_second, const Eigen::Matrix2d& H_third,
                                        const std::vector<BearingTriplet>& off_plane);
 // TT4 from the bearings directly: ≥ 3 triplets on the plane (both homographies) + ≥ 1 off it; the
-// plane's triplets also add their trilinear rows (least squares over every match).
+// plane's triplets also add their trilinear rows (least squares over every match), and the four
+// plane rows are weighted by the bearing noise propagated through the homographies (first order,
+// against the trilinear rows' mean; a second solve at the first solution) — unit weights let
+// poorly conditioned plane rows outvote the matches in forward motion (eval_trifocal, MovB).
 Expected<TrifocalTensor1d> estimateTT4(const std::vector<BearingTriplet>& on_plane,
                                        const std::vector<BearingTriplet>& off_plane);
 
