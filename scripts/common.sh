@@ -21,6 +21,7 @@ HTR_DEBIAN_PACKAGES=(
   ros-std-msgs ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-diagnostic-msgs
   libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev googletest libbenchmark-dev
+  clang clang-tidy libclang-rt-14-dev
   opencv-doc
   rviz xvfb xauth imagemagick
 )

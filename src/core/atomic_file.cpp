@@ -33,7 +33,7 @@ Status writeFileAtomically(const std::string& path, const std::string& content) 
     const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const Status status(StatusCode::kInvalidInput, errorText("cannot write", temporary));
+      Status status(StatusCode::kInvalidInput, errorText("cannot write", temporary));
       ::close(fd);
       ::unlink(temporary.c_str());
       return status;
@@ -41,14 +41,14 @@ Status writeFileAtomically(const std::string& path, const std::string& content) 
     written += static_cast<std::size_t>(n);
   }
   if (::fsync(fd) != 0) {
-    const Status status(StatusCode::kInvalidInput, errorText("cannot sync", temporary));
+    Status status(StatusCode::kInvalidInput, errorText("cannot sync", temporary));
     ::close(fd);
     ::unlink(temporary.c_str());
     return status;
   }
   ::close(fd);
   if (::rename(temporary.c_str(), path.c_str()) != 0) {
-    const Status status(StatusCode::kInvalidInput, errorText("cannot rename onto", path));
+    Status status(StatusCode::kInvalidInput, errorText("cannot rename onto", path));
     ::unlink(temporary.c_str());
     return status;
   }

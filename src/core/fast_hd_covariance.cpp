@@ -35,8 +35,8 @@ Eigen::Matrix<double, 9, 9> denormalizationJacobian(const NormalizedDlt& dlt) {
   const Eigen::Matrix3d t2_inverse = dlt.current_normalization.transform.inverse();
   const Eigen::Matrix3d t1_transpose = dlt.reference_normalization.transform.transpose();
   Eigen::Matrix<double, 9, 9> kron;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) kron.block<3, 3>(3 * i, 3 * j) = t2_inverse(i, j) * t1_transpose;
+  for (Eigen::Index i = 0; i < 3; ++i) {
+    for (Eigen::Index j = 0; j < 3; ++j) kron.block<3, 3>(3 * i, 3 * j) = t2_inverse(i, j) * t1_transpose;
   }
   return kron;
 }

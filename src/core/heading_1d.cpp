@@ -105,7 +105,7 @@ Expected<std::vector<CompleteMotion1d>> completeMotion1d(const Eigen::Matrix2d& 
   const Eigen::JacobiSVD<Eigen::Matrix2d> svd(Hc, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const double lambda1 = svd.singularValues()(0) * svd.singularValues()(0);
   const double lambda2 = svd.singularValues()(1) * svd.singularValues()(1);
-  const Eigen::Matrix2d V = svd.matrixV();
+  const Eigen::Matrix2d& V = svd.matrixV();
   const Eigen::Matrix2d J = perpendicular();
   Eigen::Vector2d mean_ray = Eigen::Vector2d::Zero();
   for (const double x : reference_xs) mean_ray += (K_inverse * Eigen::Vector2d(x, 1.0)).normalized();

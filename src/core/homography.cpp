@@ -76,8 +76,9 @@ Expected<NormalizedDlt> solveNormalizedDlt(const PointMatches& matches) {
     const Eigen::Vector3d q = t2->transform * current[i].homogeneous();
     const double u2 = q.x();
     const double v2 = q.y();
-    a.row(2 * i) << 0.0, 0.0, 0.0, -p.transpose(), v2 * p.transpose();
-    a.row(2 * i + 1) << p.transpose(), 0.0, 0.0, 0.0, -u2 * p.transpose();
+    const auto row = static_cast<Eigen::Index>(2 * i);
+    a.row(row) << 0.0, 0.0, 0.0, -p.transpose(), v2 * p.transpose();
+    a.row(row + 1) << p.transpose(), 0.0, 0.0, 0.0, -u2 * p.transpose();
   }
   // A = QR leaves the singular values and right singular vectors unchanged, and the 9x9 R is
   // cheap to decompose: O(n) instead of a Jacobi SVD of the tall 2n x 9 matrix. The QR runs in

@@ -94,6 +94,20 @@ double transferResidual1d(const Eigen::Matrix2d& H, const LineCorrespondence& li
   return line.current_x - (H(0, 0) * line.reference_x + H(0, 1)) / denominator;
 }
 
+namespace {
+
+// LMedS draws at most this many subsets: a smaller inlier_probability is refused by validate()
+// (it would also overflow the count: Pns³ underflows to 0 for Pns < 1e-103 and m = −inf).
+constexpr double kMaxSubsets = 1e6;
+
+// m = ⌈log Pf / log(1 − Pns³)⌉ in double (NaN or ±inf for degenerate probabilities).
+double subsetCountReal(double failure_probability, double inlier_probability) {
+  const double p3 = inlier_probability * inlier_probability * inlier_probability;
+  return std::ceil(std::log(failure_probability) / std::log1p(-p3));
+}
+
+}  // namespace
+
 void Homography1dOptions::validate() const {
   if (!(failure_probability > 0.0 && failure_probability < 1.0)) {
     throw std::invalid_argument("1D homography: failure_probability must be in (0, 1)");
@@ -101,11 +115,17 @@ void Homography1dOptions::validate() const {
   if (!(inlier_probability > 0.0 && inlier_probability < 1.0)) {
     throw std::invalid_argument("1D homography: inlier_probability must be in (0, 1)");
   }
+  const double subsets = subsetCountReal(failure_probability, inlier_probability);
+  if (!(subsets >= 1.0 && subsets <= kMaxSubsets)) {
+    throw std::invalid_argument("1D homography: inlier_probability " + std::to_string(inlier_probability) +
+                                " with failure_probability " + std::to_string(failure_probability) +
+                                " needs more than 1e6 LMedS subsets");
+  }
 }
 
 int Homography1dOptions::subsetCount() const {
-  const double p3 = inlier_probability * inlier_probability * inlier_probability;
-  return static_cast<int>(std::ceil(std::log(failure_probability) / std::log(1.0 - p3)));
+  const double subsets = subsetCountReal(failure_probability, inlier_probability);
+  return subsets >= 1.0 ? static_cast<int>(std::min(subsets, kMaxSubsets)) : 1;
 }
 
 Expected<Homography1dResult> estimateHomography1dLmeds(const std::vector<LineCorrespondence>& lines,
@@ -141,7 +161,7 @@ Expected<Homography1dResult> estimateHomography1dLmeds(const std::vector<LineCor
       const double r = transferResidual1d(*H, lines[i]);
       squared[i] = r * r;
     }
-    std::nth_element(squared.begin(), squared.begin() + n / 2, squared.end());
+    std::nth_element(squared.begin(), squared.begin() + static_cast<std::ptrdiff_t>(n / 2), squared.end());
     const double median = squared[n / 2];
     if (median < best_median) {
       best_median = median;

@@ -143,7 +143,7 @@ Expected<RefinedHomography> refineHomographySampson(const Eigen::Matrix3d& H,
   }
   RefinedHomography result;
   const double to_pixels = 1.0 / (c.scale * c.scale);
-  result.initial_rms_sampson_px = std::sqrt(cost * to_pixels / matches.size());
+  result.initial_rms_sampson_px = std::sqrt(cost * to_pixels / static_cast<double>(matches.size()));
   double lambda = 1e-4;
   int iteration = 0;
   for (; iteration < options.max_iterations; ++iteration) {
@@ -185,7 +185,7 @@ Expected<RefinedHomography> refineHomographySampson(const Eigen::Matrix3d& H,
   refined /= refined.norm();
   if (!refined.allFinite()) return Status(StatusCode::kNotFinite, "refined homography is not finite");
   result.H = refined;
-  result.rms_sampson_px = std::sqrt(cost * to_pixels / matches.size());
+  result.rms_sampson_px = std::sqrt(cost * to_pixels / static_cast<double>(matches.size()));
   result.iterations = iteration;
   return result;
 }

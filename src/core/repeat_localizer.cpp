@@ -176,6 +176,7 @@ Status RepeatLocalizer::checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePl
   const auto solutions = decomposeHomographyClassic(H, camera_);
   if (!solutions) return Status::ok();  // nothing to check against; the residual test stands
   std::vector<Eigen::Vector2d> pixels;
+  pixels.reserve(inliers.size());
   for (const int i : inliers) pixels.push_back(matches[static_cast<std::size_t>(i)].reference);
   const auto visible = filterByPositiveDepth(*solutions, camera_, pixels);
   if (visible.empty()) return Status::ok();
@@ -243,7 +244,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
       const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);
       sum += e * e;
     }
-    const double rms = std::sqrt(sum / std::max<std::size_t>(1, pose->inliers.size()));
+    const double rms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, pose->inliers.size())));
     if (!(rms <= options_.max_plane_residual_px)) {
       return Status(StatusCode::kNoConsensus,
                     "the matches do not fit the keyframe's plane (RMS " + std::to_string(rms) +

@@ -69,7 +69,8 @@ RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptio
     for (int lap = 0; lap < options_.laps; ++lap) {
       for (int k = options_.start_index; k <= last; ++k) sequence_.push_back(k);
     }
-    goals_per_lap_ = static_cast<std::size_t>(last - options_.start_index + 1);
+    const int goals_per_lap = last - options_.start_index + 1;
+    goals_per_lap_ = static_cast<std::size_t>(goals_per_lap);
   }
 }
 

@@ -87,8 +87,8 @@ Expected<Eigen::VectorXd> minimalNullVector(const Eigen::MatrixXd& A_dynamic, co
 // dimension.
 Expected<Eigen::VectorXd> nullVector(const Eigen::MatrixXd& A, const char* what) {
   if (A.rows() + 1 == A.cols() && (A.cols() == 4 || A.cols() == 6 || A.cols() == 8)) {
-    const auto x = A.cols() == 4 ? minimalNullVector<3>(A, what)
-                                 : (A.cols() == 6 ? minimalNullVector<5>(A, what) : minimalNullVector<7>(A, what));
+    auto x = A.cols() == 4 ? minimalNullVector<3>(A, what)
+                           : (A.cols() == 6 ? minimalNullVector<5>(A, what) : minimalNullVector<7>(A, what));
     if (x) return x;
   }
   const Eigen::Index unknowns = A.cols();
@@ -442,7 +442,7 @@ Expected<TrifocalTensor1d> estimateTT4(const std::vector<BearingTriplet>& on_pla
   // every match (the homographies alone would leave their noise unaveraged).
   std::vector<BearingTriplet> all = *unit_off;
   all.insert(all.end(), unit_on->begin(), unit_on->end());
-  const auto initial = solveTT4(*rows, Eigen::Vector4d::Ones(), all);
+  auto initial = solveTT4(*rows, Eigen::Vector4d::Ones(), all);
   if (!initial) return initial;
   const auto weights = planeRowWeights(*H_second, *H_third, *unit_on, all, *initial);
   if (!weights) return initial;

@@ -31,7 +31,11 @@ void VerticalLineOptions::validate() const {
     throw std::invalid_argument("vertical lines: max_angle_deg must be in (0, 45)");
   }
   if (min_length_px < 3) throw std::invalid_argument("vertical lines: min_length_px must be >= 3");
-  if (!(min_gradient > 0.0)) throw std::invalid_argument("vertical lines: min_gradient must be > 0");
+  // 1020 = 4 · 255, the largest |gx| of the 3x3 Sobel on an 8-bit image: a higher threshold finds
+  // nothing (and would not fit the int threshold; found by fuzz_vertical_lines).
+  if (!(min_gradient > 0.0 && min_gradient <= 1020.0)) {
+    throw std::invalid_argument("vertical lines: min_gradient must be in (0, 1020]");
+  }
   if (!(max_step_px > 0.0)) throw std::invalid_argument("vertical lines: max_step_px must be > 0");
   if (max_row_gap < 0) throw std::invalid_argument("vertical lines: max_row_gap must be >= 0");
   if (!(max_fit_rms_px > 0.0)) {
@@ -183,7 +187,7 @@ Expected<std::vector<VerticalLine>> VerticalLineExtractor::extract(const cv::Mat
     for (std::size_t i = 0; i < chain.points.size(); i += 2) {
       const int px = static_cast<int>(std::lround(chain.points[i].x()));
       const int py = static_cast<int>(chain.points[i].y());
-      if (px - offset < 0 || px + offset >= width) continue;
+      if (offset > px || offset >= width - px) continue;  // (px ± offset could overflow)
       const uint8_t* row = gray_.ptr<uint8_t>(py);
       left_sum += row[px - offset];
       right_sum += row[px + offset];

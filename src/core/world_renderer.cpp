@@ -25,7 +25,8 @@ cv::Vec3f sampleTiled(const cv::Mat& texture, double u, double v) {
   const cv::Vec3b& p11 = texture.at<cv::Vec3b>(v1, u1);
   cv::Vec3f out;
   for (int c = 0; c < 3; ++c) {
-    out[c] = (1 - a) * (1 - b) * p00[c] + a * (1 - b) * p01[c] + (1 - a) * b * p10[c] + a * b * p11[c];
+    out[c] = (1 - a) * (1 - b) * static_cast<float>(p00[c]) + a * (1 - b) * static_cast<float>(p01[c]) +
+             (1 - a) * b * static_cast<float>(p10[c]) + a * b * static_cast<float>(p11[c]);
   }
   return out;
 }

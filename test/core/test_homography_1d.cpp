@@ -42,6 +42,17 @@ TEST(Homography1d, SubsetCountOfAlgorithm1) {
   EXPECT_EQ(options.subsetCount(), 17);
   options.failure_probability = 0.01;
   EXPECT_EQ(options.subsetCount(), 11);
+  // A tiny inlier probability needs more subsets than LMedS draws (found by fuzz_parameters: at
+  // 5e-324, Pns³ underflowed to 0 and m = −inf was cast to int): refused, and never an overflow.
+  for (const double tiny : {5e-324, 1e-30, 0.001}) {
+    options.inlier_probability = tiny;
+    EXPECT_THROW(options.validate(), std::invalid_argument) << tiny;
+    EXPECT_GE(options.subsetCount(), 1) << tiny;
+    EXPECT_LE(options.subsetCount(), 1000000) << tiny;
+  }
+  options.inlier_probability = 0.05;  // m = 36840: allowed
+  EXPECT_NO_THROW(options.validate());
+  EXPECT_EQ(options.subsetCount(), 36840);
 }
 
 TEST(Homography1d, DltExactFromThreeAndMany) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "homography_teach_repeat/vertical_lines.h"
 
@@ -149,6 +150,18 @@ TEST(VerticalLines, BadInput) {
   VerticalLineOptions options;
   options.max_angle_deg = 0.0;
   EXPECT_THROW(VerticalLineExtractor{options}, std::invalid_argument);
+  // Found by fuzz_vertical_lines: a threshold beyond any 8-bit Sobel response (it overflowed the
+  // int threshold) is refused; a huge brightness offset samples nothing instead of overflowing.
+  options = VerticalLineOptions{};
+  options.min_gradient = 7.6e307;
+  EXPECT_THROW(VerticalLineExtractor{options}, std::invalid_argument);
+  options = VerticalLineOptions{};
+  options.brightness_offset_px = std::numeric_limits<int>::max();
+  VerticalLineExtractor far_samples(options);
+  const auto far_lines = far_samples.extract(bands({300.0}, {40, 200}));
+  ASSERT_TRUE(far_lines.isOk());
+  ASSERT_EQ(far_lines->size(), 1u);
+  EXPECT_EQ((*far_lines)[0].left_brightness, 0.0);
   // A colour image works like its grey version.
   cv::Mat colour;
   cv::cvtColor(bands({300.0}, {40, 200}), colour, cv::COLOR_GRAY2BGR);

@@ -60,10 +60,14 @@ TEST(TrifocalLocalizerSim, ThreeViewPosesFollowTheGroundTruth) {
     ASSERT_EQ(t.poses.size(), 3U);
     EXPECT_EQ(t.header.frame_id, "odom");
     const Pose2D first = toPose(t.poses[0]), last = toPose(t.poses[2]);
-    // The first view sits at its odometry pose: that finds its stamp.
+    // The first view sits at its odometry pose: that finds its stamp (the heading too: during an
+    // in-place turn the position alone matches many stamps).
     double first_stamp = -1.0;
     for (const auto& [stamp, pose] : odometry) {
-      if (std::abs(pose.x - first.x) < 1e-6 && std::abs(pose.y - first.y) < 1e-6) first_stamp = stamp;
+      if (std::abs(pose.x - first.x) < 1e-6 && std::abs(pose.y - first.y) < 1e-6 &&
+          std::abs(wrapToPi(pose.yaw - first.yaw)) < 1e-6) {
+        first_stamp = stamp;
+      }
     }
     ASSERT_GE(first_stamp, 0.0);
     const double last_stamp = t.header.stamp.toSec();
