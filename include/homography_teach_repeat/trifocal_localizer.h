@@ -47,6 +47,15 @@ struct TrifocalLocalizerOptions {
   // 6-8 of 230-300 off the wall (stray matches) gave 2.7-3.3° heading errors, 9 of 72 gave 0.4°.
   int min_off_plane = 5;
   double min_off_plane_fraction = 0.05;
+  // The vision poses of views 2 and 3 must agree with the prior (odometry; view 2 from
+  // `first_to_second` when given): position within max_prior_disagreement_fraction [>= 0] of the
+  // prior's distance from view 1 plus 0.05 m, heading within max_prior_heading_disagreement
+  // [rad, > 0]; else kNoConsensus. A wrong tensor (a wrong candidate, a wrong scale) is refused
+  // instead of published — and instead of becoming the next triplet's prior: in a sanitizer CI run
+  // of trifocal_localizer_sim one triplet came out 0.83 m / 6.5° off and, as the prior of the
+  // following ones, put them 0.13-0.35 m off.
+  double max_prior_disagreement_fraction = 0.3;
+  double max_prior_heading_disagreement = 0.15;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };

@@ -42,6 +42,12 @@ void TrifocalLocalizerOptions::validate() const {
   if (!(min_off_plane_fraction >= 0.0 && min_off_plane_fraction < 1.0)) {
     throw std::invalid_argument("min_off_plane_fraction must be in [0, 1)");
   }
+  if (!(max_prior_disagreement_fraction >= 0.0 && std::isfinite(max_prior_disagreement_fraction))) {
+    throw std::invalid_argument("max_prior_disagreement_fraction must be finite and >= 0");
+  }
+  if (!(max_prior_heading_disagreement > 0.0 && max_prior_heading_disagreement <= M_PI)) {
+    throw std::invalid_argument("max_prior_heading_disagreement must be in (0, pi]");
+  }
   if (min_inliers < minimalTriplets(ransac.method)) {
     throw std::invalid_argument("min_inliers must be at least the minimal set of the method (" +
                                 std::to_string(minimalTriplets(ransac.method)) + ")");
@@ -143,6 +149,21 @@ Expected<TrifocalLocalization> TrifocalLocalizer::localize(const TrifocalView& f
   result.base_poses[0] = first.odometry;
   result.base_poses[1] = first.odometry.compose(mount_.cameraToBase(PlanarPose(c2.x(), c2.y(), motion->motion.theta_second)));
   result.base_poses[2] = first.odometry.compose(mount_.cameraToBase(PlanarPose(c3.x(), c3.y(), motion->motion.theta_third)));
+  const Pose2D prior_poses[2] = {second_pose, third_pose};
+  for (int view = 1; view <= 2; ++view) {
+    const Pose2D& prior_pose = prior_poses[view - 1];
+    const Pose2D& vision_pose = result.base_poses[static_cast<std::size_t>(view)];
+    const double travelled = std::hypot(prior_pose.x - first.odometry.x, prior_pose.y - first.odometry.y);
+    const double position = std::hypot(vision_pose.x - prior_pose.x, vision_pose.y - prior_pose.y);
+    const double heading = std::abs(wrapToPi(vision_pose.yaw - prior_pose.yaw));
+    if (position > options_.max_prior_disagreement_fraction * travelled + 0.05 ||
+        heading > options_.max_prior_heading_disagreement) {
+      return Status(StatusCode::kNoConsensus,
+                    "trifocal localization: view " + std::to_string(view + 1) + " is " + std::to_string(position) +
+                        " m / " + std::to_string(heading) + " rad from its odometry prior (" +
+                        std::to_string(travelled) + " m travelled): a wrong tensor, not published");
+    }
+  }
   const Pose2D& camera_in_base = mount_.forwardFrame();
   for (const auto& t : inliers) {
     const auto landmark = triangulateLandmark(motion->motion, t);

@@ -29,6 +29,10 @@ TrifocalLocalizerOptions readOptions(const ros::NodeHandle& nh) {
     o.min_inliers = readParameter(nh, "min_inliers", o.min_inliers);
     o.min_off_plane = readParameter(nh, "min_off_plane", o.min_off_plane);
     o.min_off_plane_fraction = readParameter(nh, "min_off_plane_fraction", o.min_off_plane_fraction);
+    o.max_prior_disagreement_fraction =
+        readParameter(nh, "max_prior_disagreement_fraction", o.max_prior_disagreement_fraction);
+    o.max_prior_heading_disagreement =
+        readParameter(nh, "max_prior_heading_disagreement", o.max_prior_heading_disagreement);
     o.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());

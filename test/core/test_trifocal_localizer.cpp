@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "homography_teach_repeat/planar_world.h"
 #include "homography_teach_repeat/trifocal_localizer.h"
@@ -71,6 +72,30 @@ TEST_F(TrifocalLocalizerTest, LocalizesThreeViewsOfTheSimulatedRoom) {
   std::nth_element(distances.begin(), distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2),
                    distances.end());
   EXPECT_LT(distances[distances.size() / 2], 0.08);
+}
+
+// Odometry that disagrees with what the images show (view 3 turned 0.3 rad more than the truth):
+// the triplet is refused instead of published; with the default gate off (huge tolerances) the
+// same views localize, and view 3's heading follows the images, not odometry (> 0.2 rad from it).
+TEST_F(TrifocalLocalizerTest, RefusesATripletThatDisagreesWithItsOdometryPrior) {
+  const Pose2D truth[3] = {Pose2D(0.8, 0.7, 0.7), Pose2D(1.2, 0.95, 0.62), Pose2D(1.6, 1.15, 0.5)};
+  TrifocalLocalizerOptions options;
+  TrifocalLocalizer localizer(camera(), CameraMount(0.0, 0.0, 0.0), options);
+  TrifocalView views[3];
+  for (int k = 0; k < 3; ++k) views[k] = view(localizer, truth[k], truth[k]);
+  views[2].odometry.yaw += 0.3;
+  const auto refused = localizer.localize(views[0], views[1], views[2]);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_EQ(refused.status().code(), StatusCode::kNoConsensus);
+  EXPECT_NE(refused.status().message().find("odometry prior"), std::string::npos) << refused.status().toString();
+  options.max_prior_heading_disagreement = M_PI;
+  options.max_prior_disagreement_fraction = 100.0;
+  const TrifocalLocalizer permissive(camera(), CameraMount(0.0, 0.0, 0.0), options);
+  const auto accepted = permissive.localize(views[0], views[1], views[2]);
+  ASSERT_TRUE(accepted.isOk()) << accepted.status().toString();
+  EXPECT_GT(std::abs(wrapToPi(accepted->base_poses[2].yaw - views[2].odometry.yaw)), 0.2);
+  options.max_prior_heading_disagreement = 0.0;
+  EXPECT_THROW(TrifocalLocalizer(camera(), CameraMount(0.0, 0.0, 0.0), options), std::invalid_argument);
 }
 
 TEST_F(TrifocalLocalizerTest, BadInput) {
