@@ -237,6 +237,16 @@ Expected<TrifocalTensor1d> estimateTT5(const std::vector<BearingTriplet>& triple
   return TrifocalTensor1d(T / T.norm());
 }
 
+namespace {
+
+// Row of the 1D homography's DLT for u -> v (h = (h11, h12, h21, h22)): v × (H u) = 0. Bilinear in
+// (u, v), so the same function gives its derivatives by either bearing.
+Eigen::Matrix<double, 1, 4> bearingHomographyRow(const Bearing& u, const Bearing& v) {
+  return Eigen::Matrix<double, 1, 4>(-v(1) * u(0), -v(1) * u(1), v(0) * u(0), v(0) * u(1));
+}
+
+}  // namespace
+
 Expected<Eigen::Matrix2d> estimateBearingHomography(const std::vector<Bearing>& from, const std::vector<Bearing>& to) {
   if (from.size() != to.size()) {
     return Status(StatusCode::kInvalidInput, "1D homography: " + std::to_string(from.size()) + " bearings to " +
@@ -252,7 +262,7 @@ Expected<Eigen::Matrix2d> estimateBearingHomography(const std::vector<Bearing>& 
     }
     const Bearing u = from[n].normalized();
     const Bearing v = to[n].normalized();
-    A.row(static_cast<Eigen::Index>(n)) << -v(1) * u(0), -v(1) * u(1), v(0) * u(0), v(0) * u(1);
+    A.row(static_cast<Eigen::Index>(n)) = bearingHomographyRow(u, v);
   }
   const auto h = nullVector(A, "1D homography");
   if (!h) return h.status();
@@ -326,9 +336,7 @@ bool bearingHomographyJacobian(const Eigen::Matrix2d& H, const std::vector<Beari
   const auto n = static_cast<Eigen::Index>(from.size());
   Eigen::MatrixXd A(n, 4);
   for (Eigen::Index k = 0; k < n; ++k) {
-    const Bearing& u = from[static_cast<std::size_t>(k)];
-    const Bearing& v = to[static_cast<std::size_t>(k)];
-    A.row(k) << -v(1) * u(0), -v(1) * u(1), v(0) * u(0), v(0) * u(1);
+    A.row(k) = bearingHomographyRow(from[static_cast<std::size_t>(k)], to[static_cast<std::size_t>(k)]);
   }
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
   const Eigen::VectorXd& sv = svd.singularValues();
@@ -342,11 +350,8 @@ bool bearingHomographyJacobian(const Eigen::Matrix2d& H, const std::vector<Beari
   for (Eigen::Index k = 0; k < n; ++k) {
     const Bearing& u = from[static_cast<std::size_t>(k)];
     const Bearing& v = to[static_cast<std::size_t>(k)];
-    const Bearing du = bearingDerivative(u), dv = bearingDerivative(v);
-    const Eigen::Vector4d da_from(-v(1) * du(0), -v(1) * du(1), v(0) * du(0), v(0) * du(1));
-    const Eigen::Vector4d da_to(-dv(1) * u(0), -dv(1) * u(1), dv(0) * u(0), dv(0) * u(1));
-    by_from->col(k) = minus_pinv.col(k) * da_from.dot(h);
-    by_to->col(k) = minus_pinv.col(k) * da_to.dot(h);
+    by_from->col(k) = minus_pinv.col(k) * bearingHomographyRow(bearingDerivative(u), v).dot(h);
+    by_to->col(k) = minus_pinv.col(k) * bearingHomographyRow(u, bearingDerivative(v)).dot(h);
   }
   return true;
 }
@@ -360,14 +365,9 @@ bool bearingHomographyJacobian(const Eigen::Matrix2d& H, const std::vector<Beari
 // plane row and the trilinear rows of the plane's own triplets is ignored (a diagonal weighting).
 // Empty when the homographies' Jacobian is not defined.
 std::optional<Eigen::Vector4d> planeRowWeights(const Eigen::Matrix2d& H_second, const Eigen::Matrix2d& H_third,
-                                               const std::vector<BearingTriplet>& unit_on_plane,
+                                               const std::vector<Bearing>& first, const std::vector<Bearing>& second,
+                                               const std::vector<Bearing>& third,
                                                const std::vector<BearingTriplet>& unit_all, const TrifocalTensor1d& T) {
-  std::vector<Bearing> first, second, third;
-  for (const auto& t : unit_on_plane) {
-    first.push_back(t.first);
-    second.push_back(t.second);
-    third.push_back(t.third);
-  }
   Eigen::Matrix<double, 4, Eigen::Dynamic> second_by_first, second_by_second, third_by_first, third_by_third;
   if (!bearingHomographyJacobian(H_second, first, second, &second_by_first, &second_by_second) ||
       !bearingHomographyJacobian(H_third, first, third, &third_by_first, &third_by_third)) {
@@ -444,7 +444,7 @@ Expected<TrifocalTensor1d> estimateTT4(const std::vector<BearingTriplet>& on_pla
   all.insert(all.end(), unit_on->begin(), unit_on->end());
   auto initial = solveTT4(*rows, Eigen::Vector4d::Ones(), all);
   if (!initial) return initial;
-  const auto weights = planeRowWeights(*H_second, *H_third, *unit_on, all, *initial);
+  const auto weights = planeRowWeights(*H_second, *H_third, first, second, third, all, *initial);
   if (!weights) return initial;
   return solveTT4(*rows, *weights, all);
 }
