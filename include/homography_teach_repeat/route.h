@@ -83,6 +83,13 @@ class RouteWriter {
   Route route_;
 };
 
+// Checks, before any image arrives, that a route can be written to `directory`: creates it and
+// keyframes/ if needed and writes (then removes) a probe file through writeFileAtomically.
+// Status kInvalidInput naming the directory when it cannot be created or written (read-only file
+// system, permissions, a path through a regular file), or when it already holds a route.yaml and
+// `overwrite` is false. teach_node calls it at start so a bad directory stops it at once.
+Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite);
+
 // Reads and validates route.yaml (not the per-keyframe files). Status kInvalidInput naming the
 // file for: a missing directory or index, YAML syntax errors (with line), an unknown
 // format_version, missing or ill-typed fields, non-finite numbers, a bad camera, duplicate or

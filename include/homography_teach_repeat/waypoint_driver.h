@@ -6,10 +6,13 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <vector>
 
+#include "homography_teach_repeat/differential_drive.h"
 #include "homography_teach_repeat/planar_pose.h"
 #include "homography_teach_repeat/potential_field_controller.h"
+#include "homography_teach_repeat/status.h"
 
 namespace homography_teach_repeat {
 
@@ -46,5 +49,15 @@ class WaypointDriver {
   bool aligned_ = false;  // turned to final_yaw after the last waypoint
   std::size_t next_ = 0;
 };
+
+// The scripted drive without ROS (offline teach runs, test fixtures, the soak benchmark's camera
+// stream): steps `robot` by `dt` [s] with `driver`'s commands computed from the robot's odometry
+// until the driver finishes, and calls `on_frame(robot, t)` at simulated times t = 0,
+// frame_period, 2 frame_period, ... (to within dt) before the step at t. Returns the first status
+// of on_frame that is not ok; kInvalidInput for dt or frame_period not > 0 or a drive that does
+// not finish within `max_duration` [s].
+Status driveWaypoints(WaypointDriver& driver, DifferentialDriveSim& robot, double dt, double frame_period,
+                      double max_duration,
+                      const std::function<Status(const DifferentialDriveSim& robot, double t)>& on_frame);
 
 }  // namespace homography_teach_repeat

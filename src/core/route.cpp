@@ -107,6 +107,25 @@ Expected<RouteWriter> RouteWriter::create(const std::string& directory, const Ro
   return writer;
 }
 
+Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite) {
+  auto notWritable = [&directory](const Status& cause) {
+    return Status(StatusCode::kInvalidInput,
+                  "route directory '" + directory + "' is not writable: " + cause.message());
+  };
+  Status status = makeDirectory(directory);
+  if (status.isOk()) status = makeDirectory(directory + "/keyframes");
+  if (!status.isOk()) return notWritable(status);
+  if (!overwrite && fileExists(directory + "/" + kIndexName)) {
+    return Status(StatusCode::kInvalidInput,
+                  "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
+  }
+  const std::string probe = directory + "/keyframes/.write_probe";
+  status = writeFileAtomically(probe, "teach_node write probe\n");
+  if (!status.isOk()) return notWritable(status);
+  std::remove(probe.c_str());
+  return Status::ok();
+}
+
 Status RouteWriter::addKeyframe(const cv::Mat& image, const ImageFeatures& features,
                                 const std::vector<VerticalLine>& lines, const Pose2D& pose,
                                 double stamp) {

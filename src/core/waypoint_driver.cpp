@@ -58,4 +58,28 @@ VelocityCommand WaypointDriver::update(const Pose2D& pose) {
   return command;
 }
 
+Status driveWaypoints(WaypointDriver& driver, DifferentialDriveSim& robot, double dt, double frame_period,
+                      double max_duration,
+                      const std::function<Status(const DifferentialDriveSim& robot, double t)>& on_frame) {
+  if (!(dt > 0.0) || !(frame_period > 0.0) || !std::isfinite(dt) || !std::isfinite(frame_period)) {
+    return Status(StatusCode::kInvalidInput, "driveWaypoints: dt and frame_period must be finite and > 0");
+  }
+  const auto steps = static_cast<long>(std::min(max_duration / dt, 1e9));
+  long frames = 0;
+  for (long step = 0; step <= steps; ++step) {
+    if (driver.finished()) return Status::ok();
+    const double t = static_cast<double>(step) * dt;
+    // Frame k is due at k * frame_period; the step nearest to it (from below by half a step) takes it.
+    if (t + 0.5 * dt >= static_cast<double>(frames) * frame_period) {
+      const Status status = on_frame(robot, t);
+      if (!status.isOk()) return status;
+      ++frames;
+    }
+    const VelocityCommand command = driver.update(robot.odometry());
+    robot.step(command.linear, command.angular, dt);
+  }
+  return Status(StatusCode::kInvalidInput,
+                "driveWaypoints: the drive did not finish within " + std::to_string(max_duration) + " s");
+}
+
 }  // namespace homography_teach_repeat

@@ -304,10 +304,19 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
   command_publisher_.publish(command);
   if (out.state != last_output_.state || out.reason != last_output_.reason) {
     publishState(toString(out.state) + (out.reason.empty() ? "" : ": " + out.reason));
-    if (out.state == FollowState::kStopped) {
-      ROS_WARN("controller_node: stopped: %s", out.reason.c_str());
+    // A new state or reason is logged at once; a reason that only changes its figures in
+    // parentheses (the pose's age grows every cycle while stopped) at most every 5 s.
+    auto withoutFigures = [](const std::string& reason) { return reason.substr(0, reason.find('(')); };
+    if (out.state != last_output_.state || withoutFigures(out.reason) != withoutFigures(last_output_.reason)) {
+      if (out.state == FollowState::kStopped) {
+        ROS_WARN("controller_node: stopped: %s", out.reason.c_str());
+      } else {
+        ROS_INFO("controller_node: %s", last_state_.c_str());
+      }
+    } else if (out.state == FollowState::kStopped) {
+      ROS_WARN_THROTTLE(5.0, "controller_node: stopped: %s", out.reason.c_str());
     } else {
-      ROS_INFO("controller_node: %s", last_state_.c_str());
+      ROS_INFO_THROTTLE(5.0, "controller_node: %s", last_state_.c_str());
     }
   }
   last_output_ = out;

@@ -7,7 +7,9 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
@@ -116,6 +118,11 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
     throw std::runtime_error("parameter '" + private_nh.resolveName("mu_max_unaided_distance") +
                              "' must be finite and >= 0");
   }
+  image_timeout_ = readParameter(private_nh, "image_timeout", image_timeout_);
+  if (!std::isfinite(image_timeout_) || !(image_timeout_ > 0.0)) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("image_timeout") +
+                             "' must be finite and > 0");
+  }
   if (!(unobserved_variance_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("unobserved_variance") +
                              "' must be > 0");
@@ -146,8 +153,18 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
       image_transport_.subscribeCamera("camera/image_raw", 1, &RepeatNode::onImage, this);
   diagnostics_.setHardwareID("repeat_node");
   diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
-  diagnostics_timer_ =
-      nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  start_time_ = ros::Time::now();
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const double silence = cameraSilence();
+      if (silence > image_timeout_) {
+        ROS_WARN_THROTTLE(10.0, "repeat_node: no image on %s for %.1f s: no pose is published",
+                          camera_subscriber_.getTopic().c_str(), silence);
+      }
+    }
+    diagnostics_.update();
+  });
   // dynamic_reconfigure starts from the validated parameters (one source of defaults: the YAML).
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<RepeatConfig>>(reconfigure_mutex_, private_nh_);
@@ -212,9 +229,22 @@ void RepeatNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 
 void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
                          const sensor_msgs::CameraInfoConstPtr& camera_info) {
+  const double age_ms = 1e3 * (ros::Time::now() - image->header.stamp).toSec();
+  const ros::WallTime started = ros::WallTime::now();
+  processImage(image, camera_info);
+  const double processing_ms = 1e3 * (ros::WallTime::now() - started).toSec();
+  std::lock_guard<std::mutex> lock(mutex_);
+  processing_ms_.push_back(processing_ms);
+  image_age_ms_.push_back(age_ms);
+  while (processing_ms_.size() > kTimingWindow) processing_ms_.pop_front();
+  while (image_age_ms_.size() > kTimingWindow) image_age_ms_.pop_front();
+}
+
+void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
+                              const sensor_msgs::CameraInfoConstPtr& camera_info) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++frames_;
-  last_image_time_ = ros::WallTime::now();
+  last_image_arrival_ = ros::Time::now();
   HeadingCorrectionStamped heading;
   heading.header = image->header;
   heading.mode = toString(mode_);
@@ -511,9 +541,23 @@ void RepeatNode::publishMarkers(int current_keyframe) {
   marker_publisher_.publish(markers);
 }
 
+double RepeatNode::cameraSilence() const {
+  const ros::Time now = ros::Time::now();
+  return (now - (frames_ > 0 ? last_image_arrival_ : start_time_)).toSec();
+}
+
 void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!last_status_.isOk()) {
+  const double silence = cameraSilence();
+  if (silence > image_timeout_) {
+    // A camera that stops is an error: no pose is published and the controller stops the robot.
+    char text[160];
+    std::snprintf(text, sizeof text, "%s: no image for %.1f s (image_timeout %.1f s)",
+                  frames_ > 0 ? "camera stopped" : "waiting for the camera", silence, image_timeout_);
+    stat.summary(frames_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
+                             : diagnostic_msgs::DiagnosticStatus::WARN,
+                 text);
+  } else if (!last_status_.isOk()) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_status_.toString());
   } else if (last_degraded_) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
@@ -522,9 +566,20 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "localized");
   }
   stat.add("frames", frames_);
+  stat.add("seconds since the last image", frames_ > 0 ? silence : -1.0);
   stat.add("failures", failures_);
   stat.add("degraded frames", degraded_);
   stat.add("poses refused by the odometry gate", gated_);
+  // Median and maximum over the last frames (the latency an image sees is its age + processing).
+  auto summary = [](std::deque<double> values) {
+    if (values.empty()) return std::string("-");
+    std::sort(values.begin(), values.end());
+    char text[64];
+    std::snprintf(text, sizeof text, "%.1f / %.1f", values[values.size() / 2], values.back());
+    return std::string(text);
+  };
+  stat.add("processing time median / max [ms]", summary(processing_ms_));
+  stat.add("image age at processing start median / max [ms]", summary(image_age_ms_));
   stat.add("last inliers", last_inliers_);
   stat.add("reference keyframe", last_keyframe_);
   stat.add("tracked keyframe", localizer_->trackedKeyframe());

@@ -5,6 +5,7 @@
 #include "homography_teach_repeat/TeachStatus.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
+#include "homography_teach_repeat/route.h"
 
 namespace homography_teach_repeat {
 namespace {
@@ -33,6 +34,11 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
     options.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
+  }
+  // A directory the route cannot be written to stops the node now, not at the first keyframe.
+  const Status writable = checkRouteDirectoryWritable(options.route_directory, options.overwrite);
+  if (!writable.isOk()) {
+    throw std::runtime_error("route_directory (" + nh.getNamespace() + "): " + writable.message());
   }
   return options;
 }

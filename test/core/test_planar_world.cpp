@@ -203,6 +203,41 @@ TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
   EXPECT_THROW(DifferentialDriveSim(Pose2D(), bad, DriveLimits()), std::invalid_argument);
 }
 
+// driveWaypoints: frames every frame_period of simulated time, the drive ends at the loop's start,
+// a failing frame stops it with its status, and a drive too long for max_duration is an error.
+TEST(WaypointDriver, DriveWaypointsCallsFramesAtTheirPeriod) {
+  const std::vector<Eigen::Vector2d> loop = {{2, 0}, {2, 1}, {0, 1}, {0, 0}};
+  WaypointDriver driver(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  std::vector<double> times;
+  const Status done = driveWaypoints(driver, robot, 1.0 / 300.0, 1.0 / 30.0, 600.0,
+                                     [&](const DifferentialDriveSim&, double t) {
+                                       times.push_back(t);
+                                       return Status::ok();
+                                     });
+  ASSERT_TRUE(done.isOk()) << done.toString();
+  EXPECT_TRUE(driver.finished());
+  EXPECT_LT(std::hypot(robot.truth().x, robot.truth().y), 0.05);
+  ASSERT_GT(times.size(), 100U);
+  for (std::size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(times[k], k / 30.0, 0.5 / 300.0 + 1e-12);
+
+  WaypointDriver again(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot2{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  int calls = 0;
+  const Status failed = driveWaypoints(again, robot2, 0.01, 0.1, 600.0, [&](const DifferentialDriveSim&, double) {
+    return ++calls == 3 ? Status(StatusCode::kInvalidInput, "frame 3 refused") : Status::ok();
+  });
+  EXPECT_EQ(failed.message(), "frame 3 refused");
+  EXPECT_EQ(calls, 3);
+
+  WaypointDriver slow(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot3{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  const auto none = [](const DifferentialDriveSim&, double) { return Status::ok(); };
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.01, 0.1, 2.0, none).code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.0, 0.1, 2.0, none).code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.01, std::nan(""), 2.0, none).code(), StatusCode::kInvalidInput);
+}
+
 // The scripted teach drive goes round a 4 x 3 m loop and stops at its start.
 TEST(WaypointDriver, DrivesTheLoopAndStops) {
   const std::vector<Eigen::Vector2d> loop = {{4, 0}, {4, 3}, {0, 3}, {0, 0}};

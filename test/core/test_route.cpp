@@ -205,6 +205,9 @@ TEST(Route, ReadOnlyDirectoryIsAClearErrorAtStart) {
   const auto writer = RouteWriter::create(dir, info());
   EXPECT_EQ(writer.status().code(), StatusCode::kInvalidInput);
   EXPECT_NE(writer.status().message().find(dir), std::string::npos) << writer.status().message();
+  const Status checked = checkRouteDirectoryWritable(dir, /*overwrite=*/true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("not writable"), std::string::npos) << checked.message();
   ::chmod(dir.c_str(), 0755);
 }
 
@@ -217,4 +220,28 @@ TEST(Route, UncreatableDirectoryIsAClearErrorAtStart) {
   EXPECT_EQ(writer.status().code(), StatusCode::kInvalidInput);
   EXPECT_NE(writer.status().message().find("plain_file/route"), std::string::npos)
       << writer.status().message();
+  const Status checked = checkRouteDirectoryWritable(dir + "/plain_file/route", true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("plain_file/route"), std::string::npos) << checked.message();
+}
+
+// An existing directory that refuses new files to everyone, root included (procfs): the probe
+// write fails and the message names the directory.
+TEST(Route, DirectoryTheKernelRefusesIsNotWritable) {
+  const Status checked = checkRouteDirectoryWritable("/proc/1", true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("/proc/1"), std::string::npos) << checked.message();
+}
+
+TEST(Route, WritableDirectoryPassesTheCheckAndKeepsNoProbe) {
+  const std::string dir = temporaryDirectory() + "/new_route";
+  EXPECT_TRUE(checkRouteDirectoryWritable(dir, false).isOk());
+  std::ifstream probe(dir + "/keyframes/.write_probe");
+  EXPECT_FALSE(probe.good());
+  auto writer = RouteWriter::create(dir, info());
+  ASSERT_TRUE(writer.isOk()) << writer.status().toString();
+  const Status existing = checkRouteDirectoryWritable(dir, false);
+  EXPECT_EQ(existing.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(existing.message().find("refusing to overwrite"), std::string::npos) << existing.message();
+  EXPECT_TRUE(checkRouteDirectoryWritable(dir, true).isOk());
 }

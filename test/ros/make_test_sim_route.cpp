@@ -70,16 +70,13 @@ int main(int argc, char** argv) {
     driving.final_yaw = 0.0;
     htr::WaypointDriver driver(waypoints, driving);
     cv::RNG rng(1);
-    const double dt = 0.01;
-    for (int step = 0; !driver.finished() && step < 200000; ++step) {
-      if (step % 10 == 0) {
-        const cv::Mat image = renderer.render(*world, robot.truth().compose(mount), 1.0, rng);
-        const auto stored = session->offer(image, robot.odometry(), step * dt);
-        if (!stored) throw std::runtime_error(stored.status().message());
-      }
-      const htr::VelocityCommand command = driver.update(robot.odometry());
-      robot.step(command.linear, command.angular, dt);
-    }
+    const htr::Status driven = htr::driveWaypoints(
+        driver, robot, 0.01, 0.1, 2000.0, [&](const htr::DifferentialDriveSim& sim, double t) {
+          const cv::Mat image = renderer.render(*world, sim.truth().compose(mount), 1.0, rng);
+          const auto stored = session->offer(image, sim.odometry(), t);
+          return stored ? htr::Status::ok() : stored.status();
+        });
+    if (!driven.isOk()) throw std::runtime_error(driven.message());
     const auto report = session->finish();
     if (!report) throw std::runtime_error(report.status().message());
     for (const auto& message : report->messages) std::cout << "  " << message << "\n";

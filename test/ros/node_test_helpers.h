@@ -6,7 +6,15 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <functional>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace homography_teach_repeat {
 namespace test_support {
@@ -43,6 +51,77 @@ inline bool spinUntil(const std::function<bool()>& done, double timeout_s,
   }
   return done();
 }
+
+// A node started by the test itself (fork/exec), so the test has its pid to kill or to wait for.
+// With `capture_stderr` its standard error goes to a pipe the test reads after it exits.
+class ChildProcess {
+ public:
+  explicit ChildProcess(const std::vector<std::string>& argv, bool capture_stderr = false) {
+    int pipe_fds[2] = {-1, -1};
+    if (capture_stderr && ::pipe2(pipe_fds, O_CLOEXEC) != 0) return;
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      if (capture_stderr) ::dup2(pipe_fds[1], STDERR_FILENO);
+      std::vector<char*> args;
+      for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+      args.push_back(nullptr);
+      ::execv(args[0], args.data());
+      ::_exit(127);
+    }
+    if (capture_stderr) {
+      ::close(pipe_fds[1]);
+      stderr_fd_ = pipe_fds[0];
+    }
+  }
+  ~ChildProcess() {
+    if (pid_ > 0 && !exit_status_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    if (stderr_fd_ >= 0) ::close(stderr_fd_);
+  }
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+
+  pid_t pid() const { return pid_; }
+  bool started() const { return pid_ > 0; }
+
+  void kill(int signal) const { ::kill(pid_, signal); }
+
+  // The exit code (or 128 + signal) once it has ended; std::nullopt when it still runs after
+  // `timeout_s` (wall clock).
+  std::optional<int> waitForExit(double timeout_s) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (!exit_status_) {
+      int status = 0;
+      const pid_t done = ::waitpid(pid_, &status, WNOHANG);
+      if (done == pid_) {
+        exit_status_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      } else if (ros::WallTime::now() > deadline) {
+        return std::nullopt;
+      } else {
+        ros::WallDuration(0.02).sleep();
+      }
+    }
+    return exit_status_;
+  }
+
+  // What it wrote to standard error (after it exited; capture_stderr only).
+  std::string standardError() const {
+    std::string text;
+    char buffer[4096];
+    ssize_t n = 0;
+    while (stderr_fd_ >= 0 && (n = ::read(stderr_fd_, buffer, sizeof buffer)) > 0) {
+      text.append(buffer, static_cast<std::size_t>(n));
+    }
+    return text;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int stderr_fd_ = -1;
+  std::optional<int> exit_status_;
+};
 
 }  // namespace test_support
 }  // namespace homography_teach_repeat

@@ -30,6 +30,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -51,13 +52,18 @@ class RepeatNode {
   RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
 
  private:
+  // Times processImage (wall clock) and records it with the image's age at the start.
   void onImage(const sensor_msgs::ImageConstPtr& image,
                const sensor_msgs::CameraInfoConstPtr& camera_info);
+  void processImage(const sensor_msgs::ImageConstPtr& image,
+                    const sensor_msgs::CameraInfoConstPtr& camera_info);
   void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
   void publishMarkers(int current_keyframe);
   void publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,
                          const RepeatEstimate* estimate, const std::string& failure);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  // Seconds (ROS time) since the last image, or since the start when none came yet; mutex_ held.
+  double cameraSilence() const;
   void onReconfigure(RepeatConfig& config, uint32_t level);
   // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
   // without odometry at that stamp.
@@ -97,7 +103,14 @@ class RepeatNode {
   int last_inliers_ = 0;
   int last_keyframe_ = -1;
   bool last_degraded_ = false;
-  ros::WallTime last_image_time_;
+  // Arrival (ROS time: simulated under use_sim_time) of the last image, and of the node's start:
+  // the diagnostics report a camera that stopped or never started after image_timeout_ seconds.
+  ros::Time last_image_arrival_, start_time_;
+  double image_timeout_ = 1.0;
+  // The last kTimingWindow frames: processing time [ms] (image in to results published) and the
+  // image's age [ms] when processing started (transport + waiting behind the previous frame).
+  static constexpr std::size_t kTimingWindow = 300;
+  std::deque<double> processing_ms_, image_age_ms_;
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
