@@ -89,14 +89,14 @@ BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_SIFT, htr::FeatureType::kSift, htr::
 BENCHMARK_CAPTURE(BM_RepeatLocalize, Mu_lines, htr::FeatureType::kOrb, htr::RepeatMode::kMu)
     ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
 
-// The matching step alone, ORB 1500 x 1500 on two frames of the synthetic wall: ours (one
-// popcount distance matrix, ratio test + mutual check) against OpenCV's brute force doing the same
-// (knnMatch k=2 forward + match backward).
-struct OrbPair {
+// The matching step alone, up to 1500 x 1500 features on two frames of the synthetic wall: ours
+// (one distance matrix: popcount for ORB, cv::batchDistance rows for SIFT; ratio test + mutual
+// check) against OpenCV's brute force doing the same (knnMatch k=2 forward + match backward).
+struct FeaturePair {
   htr::ImageFeatures reference, current;
-  OrbPair() {
+  explicit FeaturePair(htr::FeatureType type) {
     htr::FeatureOptions options;
-    options.type = htr::FeatureType::kOrb;
+    options.type = type;
     options.max_features = 1500;
     htr::FeatureExtractor extractor(options);
     reference = *extractor.extract(fixture().wall.imageAt(htr::PlanarPose(0.0, 0.5, 0.02)));
@@ -104,17 +104,24 @@ struct OrbPair {
   }
 };
 
-void BM_MatchOrb1500_Ours(benchmark::State& state) {
-  static const OrbPair pair;
+const FeaturePair& featurePair(htr::FeatureType type) {
+  static const FeaturePair orb(htr::FeatureType::kOrb), sift(htr::FeatureType::kSift);
+  return type == htr::FeatureType::kOrb ? orb : sift;
+}
+
+void BM_Match1500_Ours(benchmark::State& state, htr::FeatureType type) {
+  const FeaturePair& pair = featurePair(type);
   for (auto _ : state) {
     benchmark::DoNotOptimize(htr::matchFeatures(pair.reference, pair.current, htr::MatchOptions()));
   }
+  state.counters["features"] = static_cast<double>(pair.reference.keypoints.size());
 }
-BENCHMARK(BM_MatchOrb1500_Ours)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Match1500_Ours, Orb, htr::FeatureType::kOrb)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Match1500_Ours, Sift, htr::FeatureType::kSift)->Unit(benchmark::kMillisecond);
 
-void BM_MatchOrb1500_OpenCvBruteForce(benchmark::State& state) {
-  static const OrbPair pair;
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
+void BM_Match1500_OpenCvBruteForce(benchmark::State& state, htr::FeatureType type) {
+  const FeaturePair& pair = featurePair(type);
+  cv::BFMatcher matcher(type == htr::FeatureType::kOrb ? cv::NORM_HAMMING : cv::NORM_L2);
   for (auto _ : state) {
     std::vector<std::vector<cv::DMatch>> forward;
     std::vector<cv::DMatch> backward;
@@ -124,7 +131,8 @@ void BM_MatchOrb1500_OpenCvBruteForce(benchmark::State& state) {
     benchmark::DoNotOptimize(backward.data());
   }
 }
-BENCHMARK(BM_MatchOrb1500_OpenCvBruteForce)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Match1500_OpenCvBruteForce, Orb, htr::FeatureType::kOrb)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Match1500_OpenCvBruteForce, Sift, htr::FeatureType::kSift)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -16,8 +16,9 @@
 //     repeat_node/heading_correction with the image's stamp (ok or not): frames processed, and
 //     latency = arrival of that message - image stamp. RSS of process PID (VmRSS) every 5 s.
 //     Writes FILE (JSON): frames in / processed / dropped / localized, latency p50/p90/p99/max,
-//     RSS at the first processed frame, at 30 s (after warm-up: "start"), at the end, its max and
-//     the samples, and the growth from "start" to "end" in percent.
+//     RSS at the first processed frame, "start" (largest sample in 10-30 % of the run, after
+//     warm-up) and "end" (largest in the last 20 %), its max and the samples, the growth from
+//     start to end in percent, and repeat_node's last diagnostics (processing time, image age).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
@@ -42,6 +43,7 @@
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/differential_drive.h"
 #include "homography_teach_repeat/planar_world.h"
+#include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/teach_session.h"
 #include "homography_teach_repeat/waypoint_driver.h"
 #include "homography_teach_repeat/world_renderer.h"
@@ -248,7 +250,7 @@ int feed(const Arguments& a) {
   const htr::Pose2D lap_step = lap.back().odometry.compose(lap.front().odometry.inverse());
 
   nlohmann::json rss_samples = nlohmann::json::array();
-  double rss_start = -1.0, rss_max = 0.0;
+  double rss_max = 0.0;
   const ros::WallTime begin = ros::WallTime::now();
   const ros::WallTime end = begin + ros::WallDuration(a.duration);
   ros::WallTime next_rss = begin;
@@ -264,7 +266,6 @@ int feed(const Arguments& a) {
       const double rss = residentMegabytes(a.pid);
       if (rss < 0.0) throw std::runtime_error("process " + std::to_string(a.pid) + " is gone (repeat_node died?)");
       rss_samples.push_back({{"t_s", (now - begin).toSec()}, {"rss_mb", rss}});
-      if (rss_start < 0.0 && (now - begin).toSec() >= 30.0) rss_start = rss;
       rss_max = std::max(rss_max, rss);
       next_rss = next_rss + ros::WallDuration(5.0);
     }
@@ -276,8 +277,7 @@ int feed(const Arguments& a) {
     odom.child_frame_id = "base_link";
     odom.pose.pose.position.x = odometry.x;
     odom.pose.pose.position.y = odometry.y;
-    odom.pose.pose.orientation.z = std::sin(odometry.yaw / 2.0);
-    odom.pose.pose.orientation.w = std::cos(odometry.yaw / 2.0);
+    odom.pose.pose.orientation = htr::ros_conversions::yawQuaternion(odometry.yaw);
     odometry_publisher.publish(odom);
     sensor_msgs::Image image;
     image.header.stamp = stamp;
@@ -297,8 +297,20 @@ int feed(const Arguments& a) {
     rate.sleep();
   }
   ros::WallDuration(2.5).sleep();  // the last frame's result and a diagnostics update
-  const double rss_end = residentMegabytes(a.pid);
+  rss_samples.push_back({{"t_s", (ros::WallTime::now() - begin).toSec()}, {"rss_mb", residentMegabytes(a.pid)}});
   spinner.stop();
+  // The allocator returns memory to the system now and then, so single samples swing by ~10 %:
+  // "start" is the largest sample in [10 %, 30 %] of the run (after warm-up), "end" the largest in
+  // its last 20 %; a leak raises the second.
+  auto windowMax = [&](double from, double to) {
+    double m = -1.0;
+    for (const auto& sample : rss_samples) {
+      const double t = sample["t_s"].get<double>() / a.duration;
+      if (t >= from && t <= to) m = std::max(m, sample["rss_mb"].get<double>());
+    }
+    return m;
+  };
+  const double rss_start = windowMax(0.1, 0.3), rss_end = windowMax(0.8, 2.0);
 
   std::lock_guard<std::mutex> lock(mutex);
   const auto processed = static_cast<long>(latencies_ms.size());
@@ -328,7 +340,8 @@ int feed(const Arguments& a) {
       {"repeat_node_diagnostics", node_diagnostics},
       {"rss_growth_percent", rss_start > 0.0 ? 100.0 * (rss_end - rss_start) / rss_start : -1.0},
       {"note", "latency: image stamp (wall clock at publication) to the arrival of repeat_node's "
-               "heading_correction for it; RSS start = first sample at or after 30 s"}};
+               "heading_correction for it; RSS sampled every 5 s: start = largest sample in 10-30 % of "
+               "the run, end = largest in the last 20 %"}};
   std::ofstream(a.json) << out.dump(2) << "\n";
   std::cout << out.dump(2) << "\n";
   return 0;

@@ -465,6 +465,9 @@ void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, cons
         } else {
           debug_reference_ = reference->clone();
         }
+      } else {
+        ROS_WARN_THROTTLE(10.0, "repeat_node: debug_image without its reference keyframe: %s",
+                          reference.status().toString().c_str());
       }
       debug_keyframe_ = estimate->keyframe;
     }

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -11,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <string>
@@ -33,6 +36,34 @@ inline sensor_msgs::CameraInfo makeCameraInfo(int width, int height, double foca
 
 inline sensor_msgs::ImagePtr makeImage(const cv::Mat& image, const std::string& encoding) {
   return cv_bridge::CvImage(std_msgs::Header(), encoding, image).toImageMsg();
+}
+
+// The tf base_link -> camera_optical_frame of a level camera `x_ahead` metres ahead of base_link
+// looking along base x: optical (x, y, z) = base (−y, −z, x).
+inline geometry_msgs::TransformStamped levelCameraMount(double x_ahead) {
+  geometry_msgs::TransformStamped mount;
+  mount.header.stamp = ros::Time::now();
+  mount.header.frame_id = "base_link";
+  mount.child_frame_id = "camera_optical_frame";
+  mount.transform.translation.x = x_ahead;
+  mount.transform.rotation.x = -0.5;
+  mount.transform.rotation.y = 0.5;
+  mount.transform.rotation.z = -0.5;
+  mount.transform.rotation.w = 0.5;
+  return mount;
+}
+
+// Odometry of base_link in odom at (x, y, yaw).
+inline nav_msgs::Odometry makeOdometry(const ros::Time& stamp, double x, double y, double yaw) {
+  nav_msgs::Odometry odom;
+  odom.header.stamp = stamp;
+  odom.header.frame_id = "odom";
+  odom.child_frame_id = "base_link";
+  odom.pose.pose.position.x = x;
+  odom.pose.pose.position.y = y;
+  odom.pose.pose.orientation.z = std::sin(yaw / 2);
+  odom.pose.pose.orientation.w = std::cos(yaw / 2);
+  return odom;
 }
 
 // Spins until `done()` or the wall-clock timeout; calls `tick()` every `period` seconds.

@@ -104,6 +104,24 @@ TEST(RepeatNode, RouteProblemsStopTheStartNamingTheFile) {
   expectStartFails<RepeatNode>("~corrupt", "format_version");
   std::filesystem::remove_all(corrupt);
 
+  // A valid route with a keyframe file the mode loads at start truncated (a disk that filled up, a
+  // copy cut short): the start fails naming the file. (Keyframe images are read only for
+  // ~debug_image.)
+  const std::filesystem::path fixture = std::filesystem::temp_directory_path() / "htr_repeat_node_test_route";
+  const std::filesystem::path truncated = std::filesystem::temp_directory_path() / "htr_truncated_route";
+  for (const auto& [file, mode] : {std::pair<std::string, std::string>{"keyframes/000002.features.yml", "fast_hd"},
+                                   {"keyframes/000003.lines.yml", "mu"}}) {
+    SCOPED_TRACE(file);
+    std::filesystem::remove_all(truncated);
+    std::filesystem::copy(fixture, truncated, std::filesystem::copy_options::recursive);
+    const auto size = std::filesystem::file_size(truncated / file);
+    std::filesystem::resize_file(truncated / file, size / 2);
+    nh.setParam("truncated/route_directory", truncated.string());
+    nh.setParam("truncated/mode", mode);
+    expectStartFails<RepeatNode>("~truncated", file);
+  }
+  std::filesystem::remove_all(truncated);
+
   nh.setParam("bad_mode/route_directory", (std::filesystem::temp_directory_path() / "htr_repeat_node_test_route").string());
   nh.setParam("bad_mode/mode", "teleport");
   expectStartFails<RepeatNode>("~bad_mode", "fast_hd");

@@ -19,16 +19,7 @@ using namespace homography_teach_repeat;
 TEST(TeachNode, BadInputIsReportedAndSurvived) {
   ros::NodeHandle nh;
   tf2_ros::StaticTransformBroadcaster static_tf;
-  geometry_msgs::TransformStamped mount;
-  mount.header.stamp = ros::Time::now();
-  mount.header.frame_id = "base_link";
-  mount.child_frame_id = "camera_optical_frame";
-  // Level camera looking along base x: optical (x, y, z) = base (−y, −z, x).
-  mount.transform.rotation.x = -0.5;
-  mount.transform.rotation.y = 0.5;
-  mount.transform.rotation.z = -0.5;
-  mount.transform.rotation.w = 0.5;
-  static_tf.sendTransform(mount);
+  static_tf.sendTransform(test_support::levelCameraMount(0.0));
 
   image_transport::ImageTransport it(nh);
   image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 5);

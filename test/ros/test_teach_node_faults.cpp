@@ -31,19 +31,6 @@ std::vector<std::string> teachNodeCommand(const std::string& name) {
   return {HTR_TEACH_NODE_BINARY, "__name:=" + name};
 }
 
-geometry_msgs::TransformStamped cameraAtBaseOrigin() {
-  geometry_msgs::TransformStamped mount;
-  mount.header.stamp = ros::Time::now();
-  mount.header.frame_id = "base_link";
-  mount.child_frame_id = "camera_optical_frame";
-  // Level camera looking along base x: optical (x, y, z) = base (−y, −z, x).
-  mount.transform.rotation.x = -0.5;
-  mount.transform.rotation.y = 0.5;
-  mount.transform.rotation.z = -0.5;
-  mount.transform.rotation.w = 0.5;
-  return mount;
-}
-
 }  // namespace
 
 TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
@@ -51,7 +38,7 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
   std::string route_dir;
   ASSERT_TRUE(ros::param::get("/killed_teach_node/route_directory", route_dir));
   tf2_ros::StaticTransformBroadcaster static_tf;
-  static_tf.sendTransform(cameraAtBaseOrigin());
+  static_tf.sendTransform(test_support::levelCameraMount(0.0));
   image_transport::ImageTransport it(nh);
   image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 5);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 50);
@@ -86,14 +73,7 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
       const Pose2D base = cameraAxesToRep103(camera_pose);
       const ros::Time stamp = ros::Time::now();
       for (const double dt : {-0.02, 0.02}) {
-        nav_msgs::Odometry odom;
-        odom.header.stamp = stamp + ros::Duration(dt);
-        odom.header.frame_id = "odom";
-        odom.pose.pose.position.x = base.x;
-        odom.pose.pose.position.y = base.y;
-        odom.pose.pose.orientation.z = std::sin(base.yaw / 2);
-        odom.pose.pose.orientation.w = std::cos(base.yaw / 2);
-        odom_pub.publish(odom);
+        odom_pub.publish(test_support::makeOdometry(stamp + ros::Duration(dt), base.x, base.y, base.yaw));
       }
       ros::WallDuration(0.03).sleep();
       auto image = test_support::makeImage(wall.imageAt(camera_pose), "mono8");

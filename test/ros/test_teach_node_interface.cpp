@@ -50,19 +50,7 @@ TEST(TeachNode, RecordsKeyframesAndPlanes) {
 
   // The camera 0.2 m ahead of base_link, level, looking forward (optical z = base x).
   tf2_ros::StaticTransformBroadcaster static_tf;
-  geometry_msgs::TransformStamped mount;
-  mount.header.stamp = ros::Time::now();
-  mount.header.frame_id = "base_link";
-  mount.child_frame_id = "camera_optical_frame";
-  mount.transform.translation.x = 0.2;
-  // Rotation base -> optical: columns x_opt = −y_base, y_opt = −z_base, z_opt = x_base.
-  const Eigen::Matrix3d R = (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
-  const Eigen::Quaterniond q(R);
-  mount.transform.rotation.x = q.x();
-  mount.transform.rotation.y = q.y();
-  mount.transform.rotation.z = q.z();
-  mount.transform.rotation.w = q.w();
-  static_tf.sendTransform(mount);
+  static_tf.sendTransform(test_support::levelCameraMount(0.2));
 
   image_transport::ImageTransport it(nh);
   image_transport::CameraPublisher camera_publisher = it.advertiseCamera("camera/image_raw", 5);
@@ -91,15 +79,7 @@ TEST(TeachNode, RecordsKeyframesAndPlanes) {
   auto basePose = [](double s) { return Pose2D(s, 0.05 * s, 0.06 * s); };
 
   auto publishOdometry = [&](const ros::Time& stamp, const Pose2D& pose) {
-    nav_msgs::Odometry odom;
-    odom.header.stamp = stamp;
-    odom.header.frame_id = "odom";
-    odom.child_frame_id = "base_link";
-    odom.pose.pose.position.x = pose.x;
-    odom.pose.pose.position.y = pose.y;
-    odom.pose.pose.orientation.z = std::sin(pose.yaw / 2);
-    odom.pose.pose.orientation.w = std::cos(pose.yaw / 2);
-    odom_publisher.publish(odom);
+    odom_publisher.publish(test_support::makeOdometry(stamp, pose.x, pose.y, pose.yaw));
   };
   // 16 images 10 cm apart; odometry 50 ms before and after each image stamp.
   const Pose2D base0 = basePose(0.0);
