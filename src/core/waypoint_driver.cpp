@@ -71,7 +71,7 @@ Status driveWaypoints(WaypointDriver& driver, DifferentialDriveSim& robot, doubl
     const double t = static_cast<double>(step) * dt;
     // Frame k is due at k * frame_period; the step nearest to it (from below by half a step) takes it.
     if (t + 0.5 * dt >= static_cast<double>(frames) * frame_period) {
-      const Status status = on_frame(robot, t);
+      Status status = on_frame(robot, t);
       if (!status.isOk()) return status;
       ++frames;
     }

@@ -5,6 +5,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -118,6 +119,13 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
     throw std::runtime_error("parameter '" + private_nh.resolveName("mu_max_unaided_distance") +
                              "' must be finite and >= 0");
   }
+  // OpenCV's worker threads (feature extraction, matching) for the whole process (a nodelet
+  // manager included): 0 keeps OpenCV's default (one per core).
+  const int opencv_threads = readParameter(private_nh, "opencv_threads", 0);
+  if (opencv_threads < 0) {
+    throw std::runtime_error("parameter '" + private_nh.resolveName("opencv_threads") + "' must be >= 0");
+  }
+  if (opencv_threads > 0) cv::setNumThreads(opencv_threads);
   image_timeout_ = readParameter(private_nh, "image_timeout", image_timeout_);
   if (!std::isfinite(image_timeout_) || !(image_timeout_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("image_timeout") +
@@ -157,6 +165,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      // Under use_sim_time the clock may not have started when the node was constructed.
+      if (start_time_.isZero()) start_time_ = ros::Time::now();
       const double silence = cameraSilence();
       if (silence > image_timeout_) {
         ROS_WARN_THROTTLE(10.0, "repeat_node: no image on %s for %.1f s: no pose is published",
@@ -545,8 +555,8 @@ void RepeatNode::publishMarkers(int current_keyframe) {
 }
 
 double RepeatNode::cameraSilence() const {
-  const ros::Time now = ros::Time::now();
-  return (now - (frames_ > 0 ? last_image_arrival_ : start_time_)).toSec();
+  if (frames_ == 0 && start_time_.isZero()) return 0.0;  // simulated clock not started yet
+  return (ros::Time::now() - (frames_ > 0 ? last_image_arrival_ : start_time_)).toSec();
 }
 
 void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
