@@ -15,6 +15,8 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <cstdlib>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,10 +53,22 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
     return info;
   }();
 
-  // The kill lands at a different moment of the keyframe cycle in each round (right after a
-  // keyframe was reported, or while the next images are processed and written).
-  for (const double kill_delay_s : {0.0, 0.03, 0.07, 0.12}) {
-    SCOPED_TRACE("kill " + std::to_string(kill_delay_s) + " s after the status");
+  // A temporary file in keyframes/: writeFileAtomically is writing a keyframe file (or the index).
+  auto writeInProgress = [&] {
+    std::error_code error;
+    for (const auto& entry : std::filesystem::directory_iterator(route_dir + "/keyframes", error)) {
+      if (entry.path().filename().string().find(".tmp.") != std::string::npos) return true;
+    }
+    return false;
+  };
+  // The kill lands at a different moment of the keyframe cycle in each round: right after a
+  // keyframe was reported, while the next images are processed and written, and (-1) the moment
+  // the test sees a keyframe file being written.
+  for (const double kill_delay_s : {0.0, 0.03, 0.07, 0.12, -1.0}) {
+    const bool kill_while_writing = kill_delay_s < 0.0;
+    SCOPED_TRACE(kill_while_writing ? std::string("kill while a keyframe file is written")
+                                    : "kill " + std::to_string(kill_delay_s) + " s after the status");
+    std::filesystem::remove_all(route_dir);  // nothing left from the previous round
     TeachStatus status;
     ros::Subscriber status_sub = nh.subscribe<TeachStatus>(
         "killed_teach_node/status", 10, [&](const auto& m) { status = *m; });
@@ -65,9 +79,11 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
         30.0));
 
     // Images 5 cm apart along the synthetic route's path (keyframe_distance 0.1: a keyframe
-    // every second image), odometry bracketing each image stamp.
-    uint32_t reported = 0;
-    for (int step = 0; step < 200 && reported < 6; ++step) {
+    // every second image), odometry bracketing each image stamp, about 15 images a second (the
+    // node processes and writes while they come). Once 6 keyframes are reported, the kill comes
+    // kill_delay_s later, between or during the writes of the next ones.
+    std::optional<ros::WallTime> kill_at;
+    for (int step = 0; step < 400; ++step) {
       const double s = 0.05 * step;
       const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
       const Pose2D base = cameraAxesToRep103(camera_pose);
@@ -82,18 +98,28 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
       sensor_msgs::CameraInfo info = info_template;
       info.header = image->header;
       camera.publish(*image, info);
-      test_support::spinUntil([&] { return status.keyframes > reported; }, 0.15);
-      reported = status.keyframes;
+      bool writing = false;
+      const ros::WallTime next_image = ros::WallTime::now() + ros::WallDuration(0.035);
+      while (ros::WallTime::now() < next_image && !(kill_at && ros::WallTime::now() >= *kill_at)) {
+        ros::spinOnce();
+        if (kill_while_writing && status.keyframes >= 6 && writeInProgress()) {
+          writing = true;
+          break;
+        }
+        ros::WallDuration(0.0005).sleep();
+      }
+      if (writing) {
+        kill_at = ros::WallTime::now();
+        break;
+      }
+      if (!kill_at && !kill_while_writing && status.keyframes >= 6) {
+        kill_at = ros::WallTime::now() + ros::WallDuration(kill_delay_s);
+      }
+      if (kill_at && ros::WallTime::now() >= *kill_at) break;
     }
-    ASSERT_GE(reported, 6U) << status.state << ": " << status.message;
-    // Keep feeding while the kill comes, so the node is busy recording when it dies.
-    const ros::WallTime kill_at = ros::WallTime::now() + ros::WallDuration(kill_delay_s);
-    while (ros::WallTime::now() < kill_at) {
-      ros::spinOnce();
-      ros::WallDuration(0.005).sleep();
-    }
+    ASSERT_TRUE(kill_at.has_value()) << status.state << ": " << status.message;
     ros::spinOnce();
-    reported = status.keyframes;
+    const uint32_t reported = status.keyframes;
     node.kill(SIGKILL);
     const auto exit_code = node.waitForExit(10.0);
     ASSERT_TRUE(exit_code.has_value());
@@ -102,9 +128,17 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
     const auto route = loadRoute(route_dir);
     ASSERT_TRUE(route.isOk()) << route.status().toString();
     EXPECT_GE(route->keyframes.size(), reported) << "keyframes reported stored before the kill";
-    EXPECT_LE(route->keyframes.size(), reported + 1);
-    std::printf("killed %.2f s after keyframe %u was reported: the route on disk has %zu keyframes\n",
-                kill_delay_s, reported, route->keyframes.size());
+    EXPECT_LE(route->keyframes.size(), reported + 2);
+    // Temporary files left behind: a write the kill interrupted (they are never read).
+    int interrupted = 0;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(route_dir)) {
+      interrupted += entry.path().filename().string().find(".tmp.") != std::string::npos ? 1 : 0;
+    }
+    std::printf("killed %s: %u keyframes reported, %zu on disk, %d interrupted writes left as temporary "
+                "files\n",
+                kill_while_writing ? "while a keyframe file was written"
+                                   : (std::to_string(kill_delay_s) + " s after keyframe 6 was reported").c_str(),
+                reported, route->keyframes.size(), interrupted);
     for (std::size_t k = 0; k < route->keyframes.size(); ++k) {
       const auto image = loadKeyframeImage(*route, k);
       ASSERT_TRUE(image.isOk()) << image.status().toString();
