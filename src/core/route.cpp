@@ -33,6 +33,22 @@ Status makeDirectory(const std::string& path) {
                 "cannot create route directory '" + path + "': " + std::strerror(errno));
 }
 
+// RouteWriter::create and checkRouteDirectoryWritable: `directory` and keyframes/ created if
+// needed, then a directory that holds a route.yaml refused unless `overwrite`.
+Status makeRouteDirectories(const std::string& directory) {
+  Status status = makeDirectory(directory);
+  if (status.isOk()) status = makeDirectory(directory + "/keyframes");
+  return status;
+}
+
+Status refuseExistingRoute(const std::string& directory, bool overwrite) {
+  if (!overwrite && fileExists(directory + "/" + kIndexName)) {
+    return Status(StatusCode::kInvalidInput,
+                  "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
+  }
+  return Status::ok();
+}
+
 std::string keyframeStem(int index) {
   std::ostringstream s;
   s << "keyframes/" << std::setw(6) << std::setfill('0') << index;
@@ -90,14 +106,9 @@ Expected<RouteWriter> RouteWriter::create(const std::string& directory, const Ro
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, std::string("route camera: ") + e.what());
   }
-  Status status = makeDirectory(directory);
+  Status status = makeRouteDirectories(directory);
+  if (status.isOk()) status = refuseExistingRoute(directory, overwrite);
   if (!status.isOk()) return status;
-  status = makeDirectory(directory + "/keyframes");
-  if (!status.isOk()) return status;
-  if (!overwrite && fileExists(directory + "/" + kIndexName)) {
-    return Status(StatusCode::kInvalidInput,
-                  "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
-  }
   RouteWriter writer;
   writer.route_.directory = directory;
   writer.route_.info = info;
@@ -112,13 +123,10 @@ Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite)
     return Status(StatusCode::kInvalidInput,
                   "route directory '" + directory + "' is not writable: " + cause.message());
   };
-  Status status = makeDirectory(directory);
-  if (status.isOk()) status = makeDirectory(directory + "/keyframes");
+  Status status = makeRouteDirectories(directory);
   if (!status.isOk()) return notWritable(status);
-  if (!overwrite && fileExists(directory + "/" + kIndexName)) {
-    return Status(StatusCode::kInvalidInput,
-                  "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
-  }
+  status = refuseExistingRoute(directory, overwrite);
+  if (!status.isOk()) return status;
   const std::string probe = directory + "/keyframes/.write_probe";
   status = writeFileAtomically(probe, "teach_node write probe\n");
   if (!status.isOk()) return notWritable(status);

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/ros/conversions.h"
@@ -244,10 +246,8 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   processImage(image, camera_info);
   const double processing_ms = 1e3 * (ros::WallTime::now() - started).toSec();
   std::lock_guard<std::mutex> lock(mutex_);
-  processing_ms_.push_back(processing_ms);
-  image_age_ms_.push_back(age_ms);
-  while (processing_ms_.size() > kTimingWindow) processing_ms_.pop_front();
-  while (image_age_ms_.size() > kTimingWindow) image_age_ms_.pop_front();
+  frame_timing_ms_.emplace_back(processing_ms, age_ms);
+  if (frame_timing_ms_.size() > kTimingWindow) frame_timing_ms_.pop_front();
 }
 
 void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
@@ -584,15 +584,17 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("degraded frames", degraded_);
   stat.add("poses refused by the odometry gate", gated_);
   // Median and maximum over the last frames (the latency an image sees is its age + processing).
-  auto summary = [](std::deque<double> values) {
+  auto summary = [this](double std::pair<double, double>::*field) {
+    std::vector<double> values;
+    for (const auto& timing : frame_timing_ms_) values.push_back(timing.*field);
     if (values.empty()) return std::string("-");
     std::sort(values.begin(), values.end());
     char text[64];
     std::snprintf(text, sizeof text, "%.1f / %.1f", values[values.size() / 2], values.back());
     return std::string(text);
   };
-  stat.add("processing time median / max [ms]", summary(processing_ms_));
-  stat.add("image age at processing start median / max [ms]", summary(image_age_ms_));
+  stat.add("processing time median / max [ms]", summary(&std::pair<double, double>::first));
+  stat.add("image age at processing start median / max [ms]", summary(&std::pair<double, double>::second));
   stat.add("last inliers", last_inliers_);
   stat.add("reference keyframe", last_keyframe_);
   stat.add("tracked keyframe", localizer_->trackedKeyframe());

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "../core/synthetic_route.h"
+#include "synthetic_camera.h"
 #include "homography_teach_repeat/TeachStatus.h"
 #include "homography_teach_repeat/route.h"
 #include "node_test_helpers.h"
@@ -45,13 +46,7 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
   image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 5);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 50);
   const test_support::SyntheticWall wall;
-  const sensor_msgs::CameraInfo info_template = [] {
-    const CameraCalibration c = test_support::syntheticCalibration();
-    sensor_msgs::CameraInfo info = test_support::makeCameraInfo(c.width, c.height, c.fx);
-    info.K[2] = info.P[2] = c.cx;
-    info.K[5] = info.P[6] = c.cy;
-    return info;
-  }();
+  const sensor_msgs::CameraInfo info_template = test_support::syntheticCameraInfo();
 
   // A temporary file in keyframes/: writeFileAtomically is writing a keyframe file (or the index).
   auto writeInProgress = [&] {

@@ -107,10 +107,10 @@ class RepeatNode {
   // the diagnostics report a camera that stopped or never started after image_timeout_ seconds.
   ros::Time last_image_arrival_, start_time_;
   double image_timeout_ = 1.0;
-  // The last kTimingWindow frames: processing time [ms] (image in to results published) and the
-  // image's age [ms] when processing started (transport + waiting behind the previous frame).
+  // The last kTimingWindow frames: {processing time [ms] (image in to results published), the
+  // image's age [ms] when processing started (transport + waiting behind the previous frame)}.
   static constexpr std::size_t kTimingWindow = 300;
-  std::deque<double> processing_ms_, image_age_ms_;
+  std::deque<std::pair<double, double>> frame_timing_ms_;
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
