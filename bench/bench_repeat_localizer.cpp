@@ -3,6 +3,8 @@
 // refinement) at 640x480 for each feature type, on the synthetic taught route of the tests.
 //   rosrun homography_teach_repeat bench_repeat_localizer [--benchmark_format=json]
 // Counters: pos_err_mm / yaw_err_mdeg of the benchmarked frame against its ground truth.
+// BM_RepeatLocalize detects features in every frame; BM_RepeatLocalizeTracked is a frame that
+// follows a detected one by optical flow (RepeatOptions::max_tracked_frames).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -48,6 +50,7 @@ void BM_RepeatLocalize(benchmark::State& state, htr::FeatureType type, htr::Repe
   }
   htr::RepeatOptions options;
   options.mode = mode;
+  options.max_tracked_frames = 0;  // every frame detected
   auto localizer = htr::RepeatLocalizer::create(*route, options);
   if (!localizer) {
     state.SkipWithError(localizer.status().toString().c_str());
@@ -87,6 +90,46 @@ BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_AKAZE, htr::FeatureType::kAkaze, htr
 BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_SIFT, htr::FeatureType::kSift, htr::RepeatMode::kFastHd)
     ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
 BENCHMARK_CAPTURE(BM_RepeatLocalize, Mu_lines, htr::FeatureType::kOrb, htr::RepeatMode::kMu)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+
+// A tracked frame (RepeatOptions::max_tracked_frames): the frame after a detected one, 1 cm on,
+// takes the detected frame's inliers on by optical flow instead of detecting features.
+void BM_RepeatLocalizeTracked(benchmark::State& state, htr::FeatureType type) {
+  const auto route = htr::loadRoute(fixture().route(type));
+  if (!route) {
+    state.SkipWithError(route.status().toString().c_str());
+    return;
+  }
+  auto localizer = htr::RepeatLocalizer::create(*route, htr::RepeatOptions());
+  if (!localizer) {
+    state.SkipWithError(localizer.status().toString().c_str());
+    return;
+  }
+  const htr::PlanarPose detected_pose(0.08 * 0.64 + 0.06, 0.64, 0.04 * 0.64 + 0.035);
+  const htr::PlanarPose camera_pose(0.08 * 0.65 + 0.06, 0.65, 0.04 * 0.65 + 0.035);
+  const cv::Mat detected = fixture().wall.imageAt(detected_pose);
+  const cv::Mat image = fixture().wall.imageAt(camera_pose);
+  const htr::Pose2D truth = htr::cameraAxesToRep103(camera_pose);
+  htr::RepeatEstimate last;
+  for (auto _ : state) {
+    state.PauseTiming();
+    localizer->setTrackedKeyframe(2);
+    const auto first = localizer->localize(detected);
+    state.ResumeTiming();
+    const auto estimate = localizer->localize(image);
+    if (!first || !estimate || !estimate->tracked) {
+      state.SkipWithError(!estimate ? estimate.status().toString().c_str() : "the frame was not tracked");
+      return;
+    }
+    last = *estimate;
+  }
+  state.counters["pos_err_mm"] = 1000.0 * std::hypot(last.base_pose.x - truth.x, last.base_pose.y - truth.y);
+  state.counters["yaw_err_mdeg"] = 1000.0 * std::abs(htr::wrapToPi(last.base_pose.yaw - truth.yaw)) * 180.0 / M_PI;
+  state.counters["inliers"] = last.inliers;
+}
+BENCHMARK_CAPTURE(BM_RepeatLocalizeTracked, FastHD_SIFT, htr::FeatureType::kSift)
+    ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(BM_RepeatLocalizeTracked, FastHD_ORB, htr::FeatureType::kOrb)
     ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
 
 // The matching step alone, up to 1500 x 1500 features on two frames of the synthetic wall: ours

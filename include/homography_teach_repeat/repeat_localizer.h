@@ -78,6 +78,19 @@ struct RepeatOptions {
   //    heading shares no lines with the image, and a wrong association gave fixes 90° off).
   bool mu_skip_turn_keyframes = true;
   double mu_max_reference_angle = 0.2;
+  // fast_hd/classic: after a frame localized against a route keyframe, up to this many following
+  // frames take that frame's inlier matches on by pyramidal Lucas-Kanade optical flow (checked
+  // forward and backward) instead of detecting and matching features: the keyframe pixels stay,
+  // the current pixels move with the image. Feature extraction is most of a frame's cost (SIFT at
+  // 640x480: ~45 of ~50 ms on 2 cores; bench_repeat_localizer), tracking ~5 ms, so at 30 Hz the
+  // node keeps up instead of dropping frames. A frame is detected again when tracking gives too
+  // few points or no estimate, when the tracked keyframe changes, after a degraded estimate, and
+  // after this many tracked frames (which bounds the drift of chained tracks). 0: every frame is
+  // detected.
+  int max_tracked_frames = 2;
+  // Forward-backward check of a tracked point [px]: tracked back into the previous frame it must
+  // land within this distance of where it started.
+  double tracking_tolerance_px = 0.5;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -89,6 +102,9 @@ struct RepeatEstimate {
   bool degraded = false;  // localized against the temporary reference
   int matches = 0;        // tentative matches (features or lines)
   int inliers = 0;
+  // The matches came from the previous frame's inliers by optical flow (RepeatOptions::
+  // max_tracked_frames), not from feature detection and matching.
+  bool tracked = false;
   bool has_pose = false;  // false in mu mode
   Pose2D base_pose;       // base_link in the route frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw), route frame
@@ -99,6 +115,15 @@ struct RepeatEstimate {
   // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.
   // distorted) for visualisation; mu mode: the matched line x at the principal row.
   PointMatches inlier_matches;
+};
+
+// Where the wall-clock time of the last localize() call went (repeat_node reports it in its
+// diagnostics: on a slow machine it says whether the features or the references cost the time).
+struct LocalizeTiming {
+  double extraction_ms = 0.0;  // features (or vertical lines, mu mode; or tracking) of the image
+  double references_ms = 0.0;  // matching and estimation against every reference tried
+  int references_tried = 0;    // route keyframes and the temporary reference
+  bool tracked = false;        // the estimate came from tracking (RepeatEstimate::tracked)
 };
 
 class RepeatLocalizer {
@@ -112,6 +137,9 @@ class RepeatLocalizer {
   // e.g. the heading-aided odometry's) restricts the references to those facing the same way
   // (RepeatOptions::mu_max_reference_angle); ignored in the other modes and when not finite.
   Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<double> predicted_yaw = std::nullopt);
+
+  // Of the last localize() call (initializeGlobally: of its last localize()), failed ones too.
+  const LocalizeTiming& lastTiming() const { return timing_; }
 
   // Start anywhere: tries every keyframe and tracks the one with most inliers.
   Expected<RepeatEstimate> initializeGlobally(const cv::Mat& image);
@@ -143,11 +171,26 @@ class RepeatLocalizer {
   bool usableForMu(const Reference& reference, int keyframe, std::optional<double> predicted_yaw) const;
 
   RepeatLocalizer(const Route& route, const RepeatOptions& options);
+  // The inlier matches of the last estimate, carried to the next frames by optical flow.
+  struct TrackedMatches {
+    cv::Mat image;  // grey frame the current points belong to
+    std::vector<cv::Point2f> reference, current;  // keyframe and frame pixels (as measured)
+    int keyframe = -1;
+    int frames_tracked = 0;  // frames since the last feature detection
+  };
+  // The matches of `track_` followed into `gray`, estimated against their keyframe.
+  Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray);
+  // Keeps the estimate's inliers for tracking (or forgets them: degraded, mu, tracking off).
+  void rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked);
+
   // mu mode: `predicted_yaw` (route frame) guides the line matching (HeadingCorrector).
   Expected<RepeatEstimate> localizeAgainst(const Reference& reference, int keyframe,
                                            const ImageFeatures& features,
                                            const std::vector<VerticalLine>& lines,
                                            std::optional<double> predicted_yaw = std::nullopt) const;
+  // fast_hd/classic: the pose from point matches against `reference` (pixels as measured).
+  Expected<RepeatEstimate> estimateFromMatches(const Reference& reference, int keyframe,
+                                               const PointMatches& measured) const;
   void advanceTracking(const RepeatEstimate& estimate);
   void restrictToPlaneFeatures();
   Status checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane, const PointMatches& matches,
@@ -165,6 +208,8 @@ class RepeatLocalizer {
   std::optional<Reference> temporary_;
   int temporary_keyframe_ = -1;
   int degraded_frames_ = 0;
+  LocalizeTiming timing_;
+  std::optional<TrackedMatches> track_;
 };
 
 }  // namespace homography_teach_repeat

@@ -1,9 +1,12 @@
 #include "homography_teach_repeat/repeat_localizer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/video/tracking.hpp>
 
 #include "homography_teach_repeat/fast_hd.h"
 #include "homography_teach_repeat/homography.h"
@@ -54,6 +57,10 @@ void RepeatOptions::validate() const {
   if (min_inliers < 4) throw std::invalid_argument("min_inliers must be >= 4");
   if (neighbour_search < 0) throw std::invalid_argument("neighbour_search must be >= 0");
   if (max_degraded_frames < 0) throw std::invalid_argument("max_degraded_frames must be >= 0");
+  if (max_tracked_frames < 0) throw std::invalid_argument("max_tracked_frames must be >= 0");
+  if (!(tracking_tolerance_px > 0.0 && std::isfinite(tracking_tolerance_px))) {
+    throw std::invalid_argument("tracking_tolerance_px must be > 0");
+  }
   if (!std::isfinite(max_plane_residual_px) || !(max_plane_residual_px > 0.0)) {
     throw std::invalid_argument("max_plane_residual_px must be > 0");
   }
@@ -169,6 +176,7 @@ void RepeatLocalizer::restrictToPlaneFeatures() {
 
 void RepeatLocalizer::setTrackedKeyframe(int keyframe) {
   tracked_ = std::clamp(keyframe, 0, keyframeCount() - 1);
+  track_.reset();
 }
 
 Status RepeatLocalizer::checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane,
@@ -217,8 +225,15 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& refer
   }
   const auto dmatches = matchFeatures(reference.features, features, options_.matching);
   if (!dmatches) return dmatches.status();
-  PointMatches matches = toPointMatches(reference.features, features, *dmatches);
-  const PointMatches measured = matches;
+  return estimateFromMatches(reference, keyframe, toPointMatches(reference.features, features, *dmatches));
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::estimateFromMatches(const Reference& reference, int keyframe,
+                                                              const PointMatches& measured) const {
+  RepeatEstimate estimate;
+  estimate.mode = options_.mode;
+  estimate.keyframe = keyframe;
+  PointMatches matches = measured;
   if (camera_.hasDistortion()) {
     for (auto& m : matches) {
       const cv::Point2d a = camera_.undistortPixel({m.reference.x(), m.reference.y()});
@@ -336,7 +351,17 @@ bool RepeatLocalizer::usableForMu(const Reference& reference, int keyframe,
   return std::abs(wrapToPi(reference_yaw - *predicted_yaw)) <= options_.mu_max_reference_angle;
 }
 
+namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
 Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<double> predicted_yaw) {
+  timing_ = LocalizeTiming();
+  const auto extraction_start = std::chrono::steady_clock::now();
   if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
   if (image.cols != camera_.width() || image.rows != camera_.height()) {
     return Status(StatusCode::kInvalidInput,
@@ -346,15 +371,40 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
   }
   ImageFeatures features;
   std::vector<VerticalLine> lines;
+  cv::Mat gray;  // fast_hd/classic: the grey image, kept for tracking
   if (options_.mode == RepeatMode::kMu) {
     auto extracted = line_extractor_.extract(image, &camera_);
     if (!extracted) return extracted.status();
     lines = std::move(*extracted);
   } else {
-    auto extracted = extractor_.extract(image);
+    auto converted = toGray8(image);
+    if (!converted) return converted.status();
+    gray = std::move(*converted);
+    if (track_ && track_->keyframe == tracked_ && track_->frames_tracked < options_.max_tracked_frames) {
+      auto estimate = localizeByTracking(gray);
+      if (estimate) {
+        timing_.tracked = true;
+        degraded_frames_ = 0;
+        rememberForTracking(*estimate, gray, track_->frames_tracked + 1);
+        advanceTracking(*estimate);
+        return estimate;
+      }
+      // Detect afresh (the time spent on tracking counts as extraction).
+    }
+    track_.reset();
+    auto extracted = extractor_.extract(gray);
     if (!extracted) return extracted.status();
     features = std::move(*extracted);
   }
+  timing_.extraction_ms = millisecondsSince(extraction_start);
+  const auto references_start = std::chrono::steady_clock::now();
+  // Against one reference, counted and timed.
+  auto localizeAgainstTimed = [&](const Reference& reference, int keyframe) {
+    ++timing_.references_tried;
+    auto estimate = localizeAgainst(reference, keyframe, features, lines, predicted_yaw);
+    timing_.references_ms = millisecondsSince(references_start);
+    return estimate;
+  };
   // A closed route (a loop: its last keyframe near its first) wraps around, so that lap 2 goes on
   // from the last keyframe to the first ones.
   const int n = keyframeCount();
@@ -383,7 +433,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
     }
   }
   for (const int k : candidates) {
-    auto estimate = localizeAgainst(keyframes_[static_cast<std::size_t>(k)], k, features, lines, predicted_yaw);
+    auto estimate = localizeAgainstTimed(keyframes_[static_cast<std::size_t>(k)], k);
     if (!estimate) {
       last_failure = Status(estimate.status().code(),
                             "keyframe " + std::to_string(k) + ": " + estimate.status().message());
@@ -406,13 +456,14 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
       temporary_keyframe_ = k;
     }
     degraded_frames_ = 0;
+    rememberForTracking(*estimate, gray, 0);
     advanceTracking(*estimate);
     return estimate;
   }
   const bool temporary_usable =
       temporary_ && (options_.mode != RepeatMode::kMu || usableForMu(*temporary_, temporary_keyframe_, predicted_yaw));
   if (temporary_usable && degraded_frames_ < options_.max_degraded_frames) {
-    auto estimate = localizeAgainst(*temporary_, temporary_keyframe_, features, lines, predicted_yaw);
+    auto estimate = localizeAgainstTimed(*temporary_, temporary_keyframe_);
     if (estimate) {
       estimate->degraded = true;
       ++degraded_frames_;
@@ -436,6 +487,69 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
                               last_failure.message());
   }
   return last_failure;
+}
+
+void RepeatLocalizer::rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked) {
+  track_.reset();
+  if (options_.max_tracked_frames == 0 || gray.empty() || !estimate.has_pose || estimate.degraded ||
+      estimate.keyframe < 0) {
+    return;
+  }
+  TrackedMatches track;
+  track.image = gray.clone();  // the caller's image may be a view of a buffer it reuses
+  track.keyframe = estimate.keyframe;
+  track.frames_tracked = frames_tracked;
+  track.reference.reserve(estimate.inlier_matches.size());
+  track.current.reserve(estimate.inlier_matches.size());
+  for (const PointMatch& m : estimate.inlier_matches) {
+    track.reference.emplace_back(static_cast<float>(m.reference.x()), static_cast<float>(m.reference.y()));
+    track.current.emplace_back(static_cast<float>(m.current.x()), static_cast<float>(m.current.y()));
+  }
+  track_ = std::move(track);
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray) {
+  const auto start = std::chrono::steady_clock::now();
+  // OpenCV's defaults for the window, pyramid and stopping rule: a 21x21 px window over 4 levels
+  // (maxLevel 3) follows motions of tens of pixels between frames (a robot turning at 0.5 rad/s
+  // moves the image ~8 px per frame at 30 Hz with f = 500 px).
+  const cv::Size window(21, 21);
+  constexpr int kPyramidLevels = 3;
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  std::vector<cv::Point2f> forward, backward;
+  std::vector<unsigned char> forward_found, backward_found;
+  std::vector<float> error;
+  try {
+    cv::calcOpticalFlowPyrLK(track_->image, gray, track_->current, forward, forward_found, error, window,
+                             kPyramidLevels, stop);
+    cv::calcOpticalFlowPyrLK(gray, track_->image, forward, backward, backward_found, error, window,
+                             kPyramidLevels, stop);
+  } catch (const cv::Exception& e) {
+    return Status(StatusCode::kInvalidInput, std::string("optical flow: ") + e.what());
+  }
+  PointMatches measured;
+  const auto inside = [&](const cv::Point2f& p) {
+    return p.x >= 0.0F && p.y >= 0.0F && p.x <= static_cast<float>(gray.cols - 1) &&
+           p.y <= static_cast<float>(gray.rows - 1);
+  };
+  for (std::size_t i = 0; i < forward.size(); ++i) {
+    if (!forward_found[i] || !backward_found[i] || !inside(forward[i])) continue;
+    if (cv::norm(backward[i] - track_->current[i]) > options_.tracking_tolerance_px) continue;
+    measured.push_back({Eigen::Vector2d(track_->reference[i].x, track_->reference[i].y),
+                        Eigen::Vector2d(forward[i].x, forward[i].y)});
+  }
+  timing_.extraction_ms = millisecondsSince(start);
+  if (static_cast<int>(measured.size()) < options_.min_inliers) {
+    return Status(StatusCode::kNoConsensus, "tracking: " + std::to_string(measured.size()) + " of " +
+                                                std::to_string(track_->current.size()) +
+                                                " points followed, need " + std::to_string(options_.min_inliers));
+  }
+  const auto references_start = std::chrono::steady_clock::now();
+  ++timing_.references_tried;
+  auto estimate = estimateFromMatches(keyframes_[static_cast<std::size_t>(track_->keyframe)], track_->keyframe, measured);
+  timing_.references_ms = millisecondsSince(references_start);
+  if (estimate) estimate->tracked = true;
+  return estimate;
 }
 
 Expected<RepeatEstimate> RepeatLocalizer::initializeGlobally(const cv::Mat& image) {

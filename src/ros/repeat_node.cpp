@@ -36,6 +36,8 @@ RepeatOptions readRepeatOptions(const ros::NodeHandle& nh) {
     options.min_inliers = readParameter(nh, "min_inliers", options.min_inliers);
     options.neighbour_search = readParameter(nh, "neighbour_search", options.neighbour_search);
     options.max_degraded_frames = readParameter(nh, "max_degraded_frames", options.max_degraded_frames);
+    options.max_tracked_frames = readParameter(nh, "max_tracked_frames", options.max_tracked_frames);
+    options.tracking_tolerance_px = readParameter(nh, "tracking_tolerance", options.tracking_tolerance_px);
     options.max_plane_residual_px = readParameter(nh, "max_plane_residual", options.max_plane_residual_px);
     options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
     options.mu_skip_turn_keyframes = readParameter(nh, "mu_skip_turn_keyframes", options.mu_skip_turn_keyframes);
@@ -246,8 +248,8 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image,
   processImage(image, camera_info);
   const double processing_ms = 1e3 * (ros::WallTime::now() - started).toSec();
   std::lock_guard<std::mutex> lock(mutex_);
-  frame_timing_ms_.emplace_back(processing_ms, age_ms);
-  if (frame_timing_ms_.size() > kTimingWindow) frame_timing_ms_.pop_front();
+  frame_timing_.push_back({processing_ms, age_ms, frame_localize_timing_});
+  if (frame_timing_.size() > kTimingWindow) frame_timing_.pop_front();
 }
 
 void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
@@ -255,6 +257,7 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
   std::lock_guard<std::mutex> lock(mutex_);
   ++frames_;
   last_image_arrival_ = ros::Time::now();
+  frame_localize_timing_.reset();
   HeadingCorrectionStamped heading;
   heading.header = image->header;
   heading.mode = toString(mode_);
@@ -285,6 +288,7 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
   if (!cv_image) return fail(cv_image.status());
   const auto estimate = initialized_ ? localizer_->localize(*cv_image, predictedMuYaw(image->header.stamp.toSec()))
                                      : localizer_->initializeGlobally(*cv_image);
+  frame_localize_timing_ = localizer_->lastTiming();
   if (!estimate) {
     fail(estimate.status());
     if (mode_ == RepeatMode::kMu) publishUnaidedMuPose(image->header);
@@ -326,6 +330,7 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
   heading.matches = static_cast<uint32_t>(estimate->matches);
   heading.reference_index = estimate->keyframe;
   heading.degraded = estimate->degraded;
+  heading.tracked = estimate->tracked;
   heading.ok = true;
   heading.status = "ok";
   heading_publisher_.publish(heading);
@@ -583,18 +588,36 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("failures", failures_);
   stat.add("degraded frames", degraded_);
   stat.add("poses refused by the odometry gate", gated_);
-  // Median and maximum over the last frames (the latency an image sees is its age + processing).
-  auto summary = [this](double std::pair<double, double>::*field) {
+  // Median and maximum over the last frames (the latency an image sees is its age + processing;
+  // processing is mostly feature extraction + matching and estimation against the references).
+  auto summary = [this](auto value) {
     std::vector<double> values;
-    for (const auto& timing : frame_timing_ms_) values.push_back(timing.*field);
+    for (const FrameTiming& timing : frame_timing_) {
+      const std::optional<double> v = value(timing);
+      if (v) values.push_back(*v);
+    }
     if (values.empty()) return std::string("-");
     std::sort(values.begin(), values.end());
     char text[64];
     std::snprintf(text, sizeof text, "%.1f / %.1f", values[values.size() / 2], values.back());
     return std::string(text);
   };
-  stat.add("processing time median / max [ms]", summary(&std::pair<double, double>::first));
-  stat.add("image age at processing start median / max [ms]", summary(&std::pair<double, double>::second));
+  stat.add("processing time median / max [ms]",
+           summary([](const FrameTiming& t) { return std::optional<double>(t.processing_ms); }));
+  stat.add("image age at processing start median / max [ms]",
+           summary([](const FrameTiming& t) { return std::optional<double>(t.age_ms); }));
+  stat.add("feature extraction median / max [ms]", summary([](const FrameTiming& t) {
+             return t.localize ? std::optional<double>(t.localize->extraction_ms) : std::nullopt;
+           }));
+  stat.add("matching and estimation median / max [ms]", summary([](const FrameTiming& t) {
+             return t.localize ? std::optional<double>(t.localize->references_ms) : std::nullopt;
+           }));
+  stat.add("references tried per frame median / max", summary([](const FrameTiming& t) {
+             return t.localize ? std::optional<double>(t.localize->references_tried) : std::nullopt;
+           }));
+  const auto tracked = std::count_if(frame_timing_.begin(), frame_timing_.end(),
+                                     [](const FrameTiming& t) { return t.localize && t.localize->tracked; });
+  stat.addf("frames tracked by optical flow", "%ld of the last %zu", static_cast<long>(tracked), frame_timing_.size());
   stat.add("last inliers", last_inliers_);
   stat.add("reference keyframe", last_keyframe_);
   stat.add("tracked keyframe", localizer_->trackedKeyframe());

@@ -298,3 +298,74 @@ TEST(RepeatLocalizer, RouteWithoutPlanesNeedsMuMode) {
   EXPECT_EQ(RepeatLocalizer::create(route, bad).status().code(), StatusCode::kInvalidInput);
   EXPECT_THROW(repeatModeFromString("fast"), std::invalid_argument);
 }
+
+// Frames 1 cm apart past keyframe 1: with max_tracked_frames 2 the two frames after a detected
+// one take its inliers on by optical flow, the third is detected again; tracked poses are as
+// accurate as detected ones (~1 mm, 0.02° here).
+TEST_F(RepeatLocalizerTest, FramesBetweenDetectionsAreTracked) {
+  RepeatOptions options;
+  options.max_tracked_frames = 2;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  localizer->setTrackedKeyframe(1);
+  const std::vector<bool> tracked{false, true, true, false, true, true, false};
+  for (std::size_t step = 0; step < tracked.size(); ++step) {
+    const double s = 0.31 + 0.01 * static_cast<double>(step);
+    const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.035);
+    const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+    ASSERT_TRUE(estimate.isOk()) << step << ": " << estimate.status().toString();
+    EXPECT_EQ(estimate->tracked, tracked[step]) << step;
+    EXPECT_EQ(localizer->lastTiming().tracked, tracked[step]) << step;
+    EXPECT_EQ(localizer->lastTiming().references_tried, 1) << step;
+    EXPECT_EQ(estimate->keyframe, 1) << step;
+    EXPECT_FALSE(estimate->degraded);
+    EXPECT_TRUE(estimate->covariance_known);
+    EXPECT_GT(estimate->inliers, 300) << step;
+    const Pose2D truth = basePose(camera_pose);
+    EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.003) << step;
+    EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.003) << step;
+    EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.05 * M_PI / 180.0) << step;
+  }
+}
+
+// A frame turned 0.2 rad (~100 px of image motion) after a detected one: the optical flow loses
+// the points (forward-backward check), the frame is detected instead, and the pose is right.
+TEST_F(RepeatLocalizerTest, TrackingFallsBackToDetection) {
+  auto localizer = RepeatLocalizer::create(route(), RepeatOptions());
+  ASSERT_TRUE(localizer.isOk());
+  localizer->setTrackedKeyframe(1);
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.31, 0.047))).isOk());
+  const PlanarPose turned(0.085, 0.32, 0.247);
+  const auto estimate = localizer->localize(wall_->imageAt(turned));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_FALSE(estimate->tracked);
+  EXPECT_FALSE(localizer->lastTiming().tracked);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(turned).x, 0.005);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(turned).y, 0.005);
+  EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - basePose(turned).yaw), 0.0, 0.1 * M_PI / 180.0);
+  // An image of another wall after a detected frame: tracking and detection fail, no pose.
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.33, 0.047))).isOk());
+  EXPECT_FALSE(localizer->localize(test_support::makeTexture(640, 480, 99)).isOk());
+}
+
+TEST_F(RepeatLocalizerTest, TrackingOffDetectsEveryFrame) {
+  RepeatOptions options;
+  options.max_tracked_frames = 0;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  localizer->setTrackedKeyframe(1);
+  for (int step = 0; step < 3; ++step) {
+    const double s = 0.31 + 0.01 * step;
+    const auto estimate = localizer->localize(wall_->imageAt(PlanarPose(0.08 * s + 0.06, s, 0.04 * s + 0.035)));
+    ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+    EXPECT_FALSE(estimate->tracked);
+    EXPECT_FALSE(localizer->lastTiming().tracked);
+    EXPECT_GT(localizer->lastTiming().extraction_ms, 0.0);
+  }
+  RepeatOptions bad;
+  bad.max_tracked_frames = -1;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = RepeatOptions();
+  bad.tracking_tolerance_px = 0.0;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+}

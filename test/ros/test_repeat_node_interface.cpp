@@ -72,12 +72,14 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
 
   const test_support::SyntheticWall wall;
   std::vector<Pose2D> truths;
-  for (int step = 0; step < 6; ++step) {
-    const double s = 0.2 * step + 0.05;
+  // 20 cm steps, then frames 1 cm apart (a camera at ~30 Hz): those are tracked by optical flow.
+  const std::vector<double> path{0.05, 0.25, 0.45, 0.65, 0.85, 1.05, 1.10, 1.11, 1.12, 1.13};
+  for (std::size_t step = 0; step < path.size(); ++step) {
+    const double s = path[step];
     const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.03);
     truths.push_back(cameraAxesToRep103(camera_pose));
     auto image = test_support::makeImage(wall.imageAt(camera_pose), "mono8");
-    image->header.stamp = ros::Time(100.0 + step);
+    image->header.stamp = ros::Time(100.0 + static_cast<double>(step));
     image->header.frame_id = "camera_optical_frame";
     sensor_msgs::CameraInfo info = syntheticCameraInfo();
     info.header = image->header;
@@ -105,6 +107,15 @@ TEST(RepeatNode, PosesHeadingAndMarkers) {
     EXPECT_GE(headings[k].reference_index, 0);
   }
   EXPECT_GE(headings.back().reference_index, 3);
+  // max_tracked_frames (2): of the four close frames at least two are tracked, and never more
+  // than two frames in a row.
+  int tracked_close = 0, run = 0;
+  for (std::size_t k = 0; k < headings.size(); ++k) {
+    run = headings[k].tracked ? run + 1 : 0;
+    EXPECT_LE(run, 2) << k;
+    if (k + 4 >= headings.size() && headings[k].tracked) ++tracked_close;
+  }
+  EXPECT_GE(tracked_close, 2);
   // The debug image: reference keyframe beside the current image.
   ASSERT_TRUE(test_support::spinUntil([&] { return debug.width > 0; }, 5.0));
   EXPECT_EQ(debug.encoding, "bgr8");

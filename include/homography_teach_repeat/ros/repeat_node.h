@@ -107,10 +107,16 @@ class RepeatNode {
   // the diagnostics report a camera that stopped or never started after image_timeout_ seconds.
   ros::Time last_image_arrival_, start_time_;
   double image_timeout_ = 1.0;
-  // The last kTimingWindow frames: {processing time [ms] (image in to results published), the
-  // image's age [ms] when processing started (transport + waiting behind the previous frame)}.
+  // Timing of one frame, kept for the last kTimingWindow frames.
+  struct FrameTiming {
+    double processing_ms = 0.0;  // image in to results published
+    double age_ms = 0.0;         // image age when processing started (transport + waiting)
+    // The localizer's part (absent when the frame failed before localization, e.g. bad camera_info).
+    std::optional<LocalizeTiming> localize;
+  };
   static constexpr std::size_t kTimingWindow = 300;
-  std::deque<std::pair<double, double>> frame_timing_ms_;
+  std::deque<FrameTiming> frame_timing_;
+  std::optional<LocalizeTiming> frame_localize_timing_;  // of the frame in progress
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
