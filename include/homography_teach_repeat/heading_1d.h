@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "homography_teach_repeat/planar_pose.h"
 #include "homography_teach_repeat/status.h"
 
 namespace homography_teach_repeat {
@@ -55,6 +56,18 @@ Expected<std::vector<CompleteMotion1d>> completeMotion1d(const Eigen::Matrix2d& 
                                                          const LineCamera& camera,
                                                          const std::vector<double>& reference_xs,
                                                          std::optional<double> depth_ratio = {});
+
+// The 1D homography that lines on the wall nᵀX1 = d (reference camera frame, n = (nx, nz) unit,
+// d > 0) induce between the reference camera and a camera at `current` (its pose in the reference
+// camera frame), in centred pixels: MATH.md §4.4, H = K (R + t nᵀ/d) K⁻¹ with t = −R C,
+// K = [[f, 0], [0, 1]], at the scale h22 = cosθ + tz nz/d (not normalised). μ = h12/h22 of it is
+// what HeadingCorrector measures (MATH.md §4.5). Status kInvalidInput for a non-unit or
+// non-finite normal, d <= 0 or f <= 0; kDegenerate when h22 <= 0 (the wall is not in front of
+// both cameras).
+Expected<Eigen::Matrix2d> planeHomography1d(const PlanarPose& current, const Eigen::Vector2d& normal_xz,
+                                            double distance, double f);
+Expected<double> predictedMu(const PlanarPose& current, const Eigen::Vector2d& normal_xz, double distance,
+                             double f);
 
 // Calibration (paper 002 §4.1): f from μ against known rotations, μ_i = f tan θ_i, least squares
 // through the origin. `samples`: (θ_i [rad], μ_i [px]).

@@ -69,8 +69,9 @@ struct RepeatOptions {
   double closed_route_gap = 1.0;
   // mu mode: μ measures the heading only up to its translation coupling f·tx·cosφ/d (MATH.md
   // §4.5): a lateral offset tx seen against a wall d away reads as a rotation of about tx/d. So
-  //  - keyframes the teach run reached turning in place (yaw changed by more than
-  //    kTurnKeyframeAngle + kTurnKeyframeRate · distance from the previous keyframe) give no
+  //  - keyframes the teach run reached turning in place or started turning at (yaw changed by
+  //    more than kTurnKeyframeAngle + kTurnKeyframeRate · distance from the previous or to the
+  //    next keyframe) give no
   //    heading fix when `mu_skip_turn_keyframes`: at a corner the walls are about 1 m away and
   //    such fixes were 5-12° off in the simulator with the robot within 3 cm of the keyframe;
   //  - with a heading prior (localize()'s `predicted_yaw`), only keyframes whose yaw is within

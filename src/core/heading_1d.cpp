@@ -54,6 +54,33 @@ Expected<double> headingFromMu(const Eigen::Matrix2d& H, const LineCamera& camer
   return std::atan(*mu / camera.f);
 }
 
+Expected<Eigen::Matrix2d> planeHomography1d(const PlanarPose& current, const Eigen::Vector2d& normal_xz,
+                                            double distance, double f) {
+  if (!normal_xz.allFinite() || std::abs(normal_xz.norm() - 1.0) > 1e-6 || !(distance > 0.0) ||
+      !std::isfinite(distance) || !(f > 0.0) || !std::isfinite(f) || !current.isFinite()) {
+    return Status(StatusCode::kInvalidInput,
+                  "plane homography: needs a finite unit normal, a distance > 0, f > 0 and a finite pose");
+  }
+  const double c = std::cos(current.theta), s = std::sin(current.theta);
+  Eigen::Matrix2d R;
+  R << c, s, -s, c;  // X2 = R X1 + t (MATH.md §4.1)
+  const Eigen::Vector2d t = -R * Eigen::Vector2d(current.x, current.z);
+  const Eigen::Matrix2d M = R + t * normal_xz.transpose() / distance;
+  Eigen::Matrix2d H;
+  H << M(0, 0), f * M(0, 1), M(1, 0) / f, M(1, 1);
+  if (!(H(1, 1) > 0.0)) {
+    return Status(StatusCode::kDegenerate, "plane homography: the wall is not in front of both cameras");
+  }
+  return H;
+}
+
+Expected<double> predictedMu(const PlanarPose& current, const Eigen::Vector2d& normal_xz, double distance,
+                             double f) {
+  const auto H = planeHomography1d(current, normal_xz, distance, f);
+  if (!H) return H.status();
+  return (*H)(0, 1) / (*H)(1, 1);
+}
+
 Expected<double> headingFromT(const Eigen::Matrix2d& H, const LineCamera& camera) {
   const Status valid = camera.validate();
   if (!valid.isOk()) return valid;

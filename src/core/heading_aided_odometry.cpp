@@ -1,13 +1,16 @@
 #include "homography_teach_repeat/heading_aided_odometry.h"
 
+#include <Eigen/Dense>
+
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
+#include "homography_teach_repeat/heading_1d.h"
+
 namespace homography_teach_repeat {
 namespace {
-
-bool finite(const Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.yaw); }
 
 void requireNonNegative(double value, const char* name) {
   if (!std::isfinite(value) || value < 0.0) {
@@ -15,15 +18,36 @@ void requireNonNegative(double value, const char* name) {
   }
 }
 
+void requirePositive(double value, const char* name) {
+  if (!std::isfinite(value) || !(value > 0.0)) {
+    throw std::invalid_argument(std::string("heading-aided odometry: ") + name + " must be finite and > 0");
+  }
+}
+
+// μ a camera at base pose `base` (route frame) measures against the observation's reference.
+Expected<double> muAt(const MuObservation& observation, const Pose2D& base) {
+  const CameraMount mount(observation.camera_mount.x, observation.camera_mount.y, observation.camera_mount.yaw);
+  const PlanarPose camera = mount.baseToCamera(observation.reference_pose.inverse().compose(base));
+  return predictedMu(camera, observation.wall_normal, observation.wall_distance, observation.focal_px);
+}
+
 }  // namespace
 
 void HeadingAidedOdometryOptions::validate() const {
+  requireNonNegative(initial_position_variance, "initial_position_variance");
   requireNonNegative(position_variance_per_metre, "position_variance_per_metre");
-  requireNonNegative(heading_fix_variance, "heading_fix_variance");
+  requirePositive(heading_fix_variance, "heading_fix_variance");
   requireNonNegative(heading_variance_per_metre, "heading_variance_per_metre");
-  if (!(correction_gain > 0.0 && correction_gain <= 1.0)) {
-    throw std::invalid_argument("heading-aided odometry: correction_gain must be in (0, 1]");
+  requireNonNegative(heading_variance_per_radian, "heading_variance_per_radian");
+  requirePositive(min_mu_variance, "min_mu_variance");
+  requirePositive(innovation_gate, "innovation_gate");
+  if (refused_before_reset < 1) {
+    throw std::invalid_argument("heading-aided odometry: refused_before_reset must be >= 1");
   }
+  requirePositive(max_mu_step_px, "max_mu_step_px");
+  requirePositive(max_confirmation_distance, "max_confirmation_distance");
+  requireNonNegative(reset_position_variance, "reset_position_variance");
+  requireNonNegative(reset_heading_variance, "reset_heading_variance");
 }
 
 HeadingAidedOdometry::HeadingAidedOdometry(const HeadingAidedOdometryOptions& options) : options_(options) {
@@ -31,56 +55,143 @@ HeadingAidedOdometry::HeadingAidedOdometry(const HeadingAidedOdometryOptions& op
 }
 
 Status HeadingAidedOdometry::align(const Pose2D& route_pose, const Pose2D& odom_pose) {
-  if (!finite(route_pose) || !finite(odom_pose)) {
+  if (!route_pose.isFinite() || !odom_pose.isFinite()) {
     return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite alignment pose");
   }
-  alignment_ = route_pose.compose(odom_pose.inverse());
-  aligned_ = true;
+  estimate_ = Pose2D(route_pose.x, route_pose.y, wrapToPi(route_pose.yaw));
+  covariance_ = Eigen::Vector3d(options_.initial_position_variance, options_.initial_position_variance,
+                                options_.heading_fix_variance)
+                    .asDiagonal();
   last_odom_ = odom_pose;
-  distance_since_start_ = distance_since_fix_ = 0.0;
-  has_fix_ = false;
+  previous_mu_.reset();
+  aligned_ = true;
+  distance_since_fix_ = 0.0;
+  refused_in_a_row_ = 0;
   return Status::ok();
 }
 
-void HeadingAidedOdometry::accumulateDistance(const Pose2D& odom_pose) {
-  if (last_odom_) {
-    const double step = std::hypot(odom_pose.x - last_odom_->x, odom_pose.y - last_odom_->y);
-    distance_since_start_ += step;
-    distance_since_fix_ += step;
-  }
+Pose2D HeadingAidedOdometry::alignment() const { return estimate_.compose(last_odom_.inverse()); }
+
+Status HeadingAidedOdometry::predict(const Pose2D& odom_pose) {
+  if (!odom_pose.isFinite()) return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite odometry");
+  if (!aligned_) return Status(StatusCode::kNoConsensus, "heading-aided odometry: not aligned yet");
+  const Pose2D step = last_odom_.inverse().compose(odom_pose);
+  const double c = std::cos(estimate_.yaw), s = std::sin(estimate_.yaw);
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  F(0, 2) = -s * step.x - c * step.y;
+  F(1, 2) = c * step.x - s * step.y;
+  const double distance = std::hypot(step.x, step.y);
+  const double turned = std::abs(wrapToPi(step.yaw));
+  // Position noise is isotropic in the body frame, so it needs no rotation into the route frame.
+  const Eigen::Vector3d process(options_.position_variance_per_metre * distance,
+                                options_.position_variance_per_metre * distance,
+                                options_.heading_variance_per_metre * distance +
+                                    options_.heading_variance_per_radian * turned);
+  covariance_ = F * covariance_ * F.transpose() + Eigen::Matrix3d(process.asDiagonal());
+  estimate_ = estimate_.compose(step);
+  estimate_.yaw = wrapToPi(estimate_.yaw);
   last_odom_ = odom_pose;
+  distance_since_fix_ += distance;
+  return Status::ok();
+}
+
+Status HeadingAidedOdometry::update(double innovation, const Eigen::RowVector3d& jacobian, double variance,
+                                    const char* what) {
+  double innovation_variance = (jacobian * covariance_ * jacobian.transpose())(0, 0) + variance;
+  if (innovation * innovation > options_.innovation_gate * options_.innovation_gate * innovation_variance) {
+    if (++refused_in_a_row_ < options_.refused_before_reset) {
+      char message[200];
+      std::snprintf(message, sizeof(message),
+                    "heading-aided odometry: %s refused, %.3g from the prediction (%.1f sigma > %.1f)", what,
+                    innovation, std::abs(innovation) / std::sqrt(innovation_variance), options_.innovation_gate);
+      return Status(StatusCode::kNoConsensus, message);
+    }
+    // Lasting disagreement: the estimate is the wrong one (e.g. a long outage with more drift
+    // than modelled). Widen it so the measurements take over.
+    covariance_ += Eigen::Vector3d(options_.reset_position_variance, options_.reset_position_variance,
+                                   options_.reset_heading_variance)
+                       .asDiagonal();
+    innovation_variance = (jacobian * covariance_ * jacobian.transpose())(0, 0) + variance;
+  }
+  refused_in_a_row_ = 0;
+  const Eigen::Vector3d gain = covariance_ * jacobian.transpose() / innovation_variance;
+  estimate_.x += gain(0) * innovation;
+  estimate_.y += gain(1) * innovation;
+  estimate_.yaw = wrapToPi(estimate_.yaw + gain(2) * innovation);
+  // Joseph form: stays symmetric positive semi-definite.
+  const Eigen::Matrix3d keep = Eigen::Matrix3d::Identity() - gain * jacobian;
+  covariance_ = keep * covariance_ * keep.transpose() + gain * variance * gain.transpose();
+  distance_since_fix_ = 0.0;
+  return Status::ok();
+}
+
+Status HeadingAidedOdometry::correctWithMu(const MuObservation& observation, const Pose2D& odom_pose) {
+  if (!std::isfinite(observation.mu) || !std::isfinite(observation.variance) || !observation.reference_pose.isFinite() ||
+      !observation.camera_mount.isFinite()) {
+    return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite mu observation");
+  }
+  Status predicted_to_fix = predict(odom_pose);
+  if (!predicted_to_fix.isOk()) return predicted_to_fix;
+  const auto predicted = muAt(observation, estimate_);
+  if (!predicted) return predicted.status();
+  // ∂μ/∂(x, y, yaw) by central differences: μ is smooth and three evaluations cost microseconds.
+  Eigen::RowVector3d jacobian;
+  const double steps[3] = {1e-5, 1e-5, 1e-6};
+  for (int i = 0; i < 3; ++i) {
+    Pose2D plus = estimate_, minus = estimate_;
+    (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
+    (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
+    const auto mu_plus = muAt(observation, plus), mu_minus = muAt(observation, minus);
+    if (!mu_plus || !mu_minus) return mu_plus ? mu_minus.status() : mu_plus.status();
+    jacobian(i) = (*mu_plus - *mu_minus) / (2.0 * steps[i]);
+  }
+  // Confirmation by the previous frame: the measured change of μ against the change the
+  // prediction gives between the two robot poses (the previous one: the current prediction moved
+  // back by the odometry between them).
+  const std::optional<PreviousMu> previous = previous_mu_;
+  previous_mu_ = PreviousMu{observation.reference_id, observation.mu, odom_pose};
+  const Pose2D back = odom_pose.inverse().compose(previous ? previous->odom : odom_pose);
+  if (!previous || previous->reference_id != observation.reference_id ||
+      std::hypot(back.x, back.y) > options_.max_confirmation_distance) {
+    return Status(StatusCode::kNoConsensus, "heading-aided odometry: mu fix waits for the next frame's confirmation");
+  }
+  const auto predicted_previous = muAt(observation, estimate_.compose(back));
+  if (!predicted_previous) return predicted_previous.status();
+  const double step_error = (observation.mu - previous->mu) - (*predicted - *predicted_previous);
+  if (std::abs(step_error) > options_.max_mu_step_px) {
+    char message[160];
+    std::snprintf(message, sizeof(message),
+                  "heading-aided odometry: mu changed %.1f px more than odometry predicts since the previous "
+                  "frame (max_mu_step_px %.1f): a wrong line association in one of them",
+                  step_error, options_.max_mu_step_px);
+    return Status(StatusCode::kNoConsensus, message);
+  }
+  return update(observation.mu - *predicted, jacobian, std::max(observation.variance, options_.min_mu_variance),
+                "mu fix");
 }
 
 Status HeadingAidedOdometry::correctHeading(double route_yaw, const Pose2D& odom_pose) {
-  if (!std::isfinite(route_yaw) || !finite(odom_pose)) {
+  if (!std::isfinite(route_yaw)) {
     return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite heading fix");
   }
-  if (!aligned_) return Status(StatusCode::kNoConsensus, "heading-aided odometry: not aligned yet");
-  const Pose2D at_fix = alignment_.compose(odom_pose);
-  const double yaw = at_fix.yaw + options_.correction_gain * wrapToPi(route_yaw - at_fix.yaw);
-  // Rotation about the robot's position at the fix: the same position, the measured heading.
-  alignment_ = Pose2D(at_fix.x, at_fix.y, wrapToPi(yaw)).compose(odom_pose.inverse());
-  distance_since_fix_ = 0.0;
-  has_fix_ = true;
-  return Status::ok();
+  Status predicted_to_fix = predict(odom_pose);
+  if (!predicted_to_fix.isOk()) return predicted_to_fix;
+  return update(wrapToPi(route_yaw - estimate_.yaw), Eigen::RowVector3d(0.0, 0.0, 1.0),
+                options_.heading_fix_variance, "heading fix");
 }
 
-Expected<Pose2D> HeadingAidedOdometry::routePose(const Pose2D& odom_pose) {
-  if (!finite(odom_pose)) return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite odometry");
+Expected<Pose2D> HeadingAidedOdometry::predictedPose(const Pose2D& odom_pose) const {
+  if (!odom_pose.isFinite()) return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite odometry");
   if (!aligned_) return Status(StatusCode::kNoConsensus, "heading-aided odometry: not aligned yet");
-  accumulateDistance(odom_pose);
-  Pose2D pose = alignment_.compose(odom_pose);
+  Pose2D pose = estimate_.compose(last_odom_.inverse().compose(odom_pose));
   pose.yaw = wrapToPi(pose.yaw);
   return pose;
 }
 
-Eigen::Matrix3d HeadingAidedOdometry::covariance() const {
-  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
-  c(0, 0) = c(1, 1) = options_.position_variance_per_metre * distance_since_start_;
-  // Before the first fix the heading is the alignment's: as uncertain as after a fix plus drift.
-  c(2, 2) = options_.heading_fix_variance + options_.heading_variance_per_metre *
-                                                (has_fix_ ? distance_since_fix_ : distance_since_start_);
-  return c;
+Expected<Pose2D> HeadingAidedOdometry::routePose(const Pose2D& odom_pose) {
+  const Status predicted = predict(odom_pose);
+  if (!predicted.isOk()) return predicted;
+  return estimate_;
 }
 
 }  // namespace homography_teach_repeat

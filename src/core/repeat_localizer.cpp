@@ -16,7 +16,7 @@
 namespace homography_teach_repeat {
 namespace {
 
-// A keyframe reached turning in place: its yaw differs from the previous keyframe's by more than
+// A keyframe reached turning in place: its yaw differs from the previous (or the next) keyframe's by more than
 // kTurnKeyframeAngle [rad] + kTurnKeyframeRate [rad/m] · their distance (driving a straight
 // segment, the teach run's heading varies by a few degrees over the keyframe spacing).
 constexpr double kTurnKeyframeAngle = 0.1;
@@ -121,10 +121,13 @@ Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const Repe
         reference.features = std::move(*features);
       }
       if (k > 0) {
-        const Pose2D& previous = route.keyframes[k - 1].pose;
-        const Pose2D& here = route.keyframes[k].pose;
-        reference.turn = std::abs(wrapToPi(here.yaw - previous.yaw)) >
-                         kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(here.x - previous.x, here.y - previous.y);
+        // A corner keyframe: reached turning, or where the teach run started turning (its
+        // heading is the straight segment's, but the walls of the corner are as near).
+        const auto turned = [&](const Pose2D& a, const Pose2D& b) {
+          return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
+        };
+        reference.turn = turned(route.keyframes[k - 1].pose, route.keyframes[k].pose) ||
+                         (k + 1 < route.keyframes.size() && turned(route.keyframes[k].pose, route.keyframes[k + 1].pose));
       }
       localizer.keyframes_.push_back(std::move(reference));
     }

@@ -62,10 +62,16 @@ void writeTunables(const RepeatOptions& options, RepeatConfig& config) {
 HeadingAidedOdometryOptions readHeadingAidedOptions(const ros::NodeHandle& nh) {
   HeadingAidedOdometryOptions o;
   try {
+    o.initial_position_variance = readParameter(nh, "mu_initial_position_variance", o.initial_position_variance);
     o.position_variance_per_metre = readParameter(nh, "mu_position_variance_per_metre", o.position_variance_per_metre);
     o.heading_fix_variance = readParameter(nh, "mu_heading_fix_variance", o.heading_fix_variance);
     o.heading_variance_per_metre = readParameter(nh, "mu_heading_variance_per_metre", o.heading_variance_per_metre);
-    o.correction_gain = readParameter(nh, "mu_heading_correction_gain", o.correction_gain);
+    o.heading_variance_per_radian = readParameter(nh, "mu_heading_variance_per_radian", o.heading_variance_per_radian);
+    o.min_mu_variance = readParameter(nh, "mu_variance", o.min_mu_variance);
+    o.innovation_gate = readParameter(nh, "mu_innovation_gate", o.innovation_gate);
+    o.refused_before_reset = readParameter(nh, "mu_gate_switch_after", o.refused_before_reset);
+    o.max_mu_step_px = readParameter(nh, "mu_max_step", o.max_mu_step_px);
+    o.max_confirmation_distance = readParameter(nh, "mu_max_confirmation_distance", o.max_confirmation_distance);
     o.validate();
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
@@ -111,13 +117,6 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   if (readParameter(private_nh, "odometry_gate", true)) {
     const OdometryGateOptions gate = readGateOptions(private_nh);
     odometry_gate_.emplace(gate);
-    OdometryGateOptions mu_gate = gate;
-    mu_gate.switch_after = readParameter(private_nh, "mu_gate_switch_after", 20);
-    try {
-      mu_gate_.emplace(mu_gate);
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error("invalid parameter in " + private_nh.getNamespace() + ": " + e.what());
-    }
   }
   if (!std::isfinite(mu_max_unaided_distance_) || mu_max_unaided_distance_ < 0.0) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("mu_max_unaided_distance") +
@@ -307,16 +306,19 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
                               "against odometry (odometry_gate): %s", odom.status().toString().c_str());
     }
   }
-  if (!estimate->has_pose && mu_gate_ && heading_aided_.aligned()) {
-    // mu mode: the heading fix against the heading the odometry carries from the accepted fixes
-    // (a wrong line association gave fixes 38° and 97° off in the simulator).
-    const Status gated = checkMuFix(image->header.stamp.toSec(), *estimate);
-    if (!gated.isOk()) {
-      ++gated_;
-      fail(gated);
+  std::optional<std::pair<Pose2D, Eigen::Matrix3d>> aided;
+  if (!estimate->has_pose) {
+    // mu mode: the fix corrects the heading-aided odometry; refused by the filter (kNoConsensus:
+    // its innovation gate, or no confirmation by the previous frame) or without odometry it is a
+    // failed frame.
+    auto fixed = headingAidedPose(image->header.stamp.toSec(), *estimate);
+    if (!fixed) {
+      if (fixed.status().code() == StatusCode::kNoConsensus) ++gated_;
+      fail(fixed.status());
       publishUnaidedMuPose(image->header);
       return;
     }
+    aided = *fixed;
   }
   initialized_ = true;
   last_status_ = Status::ok();
@@ -352,19 +354,8 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
     }
     return;
   }
-  // mu mode: odometry position, visual heading.
-  const auto aided = headingAidedPose(image->header.stamp.toSec(), *estimate);
-  if (!aided) {
-    last_status_ = aided.status();
-    ROS_WARN_THROTTLE(2.0, "repeat_node: mu mode, no pose: %s", aided.status().toString().c_str());
-    return;
-  }
+  // mu mode: the heading-aided odometry corrected by this frame's μ.
   localizer_->advanceTrackingTo(aided->first);
-  if (mu_gate_ && !mu_gate_->hasReference()) {
-    // The fix that aligned the odometry is the mu gate's first reference.
-    const auto odom = odometry_.poseNear(image->header.stamp.toSec(), kOdometryLagForGate);
-    if (odom) mu_gate_->check(aided->first, *odom);
-  }
   publishPose(image->header, aided->first, &aided->second);
   if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
 }
@@ -373,20 +364,9 @@ std::optional<double> RepeatNode::predictedMuYaw(double stamp) {
   if (mode_ != RepeatMode::kMu || !heading_aided_.aligned()) return std::nullopt;
   const auto odom = odometry_.poseNear(stamp, kOdometryLagForGate);
   if (!odom) return std::nullopt;
-  const auto predicted = heading_aided_.routePose(*odom);
+  const auto predicted = heading_aided_.predictedPose(*odom);
   if (!predicted) return std::nullopt;
   return predicted->yaw;
-}
-
-Status RepeatNode::checkMuFix(double stamp, const RepeatEstimate& estimate) {
-  const auto odom = odometry_.poseNear(stamp, kOdometryLagForGate);
-  if (!odom) return Status::ok();  // headingAidedPose reports the missing odometry
-  const auto predicted = heading_aided_.routePose(*odom);
-  if (!predicted) return Status::ok();
-  const Pose2D& keyframe = localizer_->route().keyframes[static_cast<std::size_t>(estimate.keyframe)].pose;
-  // The position is the heading-aided odometry's own: only the heading can disagree.
-  return mu_gate_->check(Pose2D(predicted->x, predicted->y, wrapToPi(keyframe.yaw + estimate.heading_correction)),
-                         *odom);
 }
 
 void RepeatNode::publishUnaidedMuPose(const std_msgs::Header& image_header) {
@@ -410,20 +390,55 @@ Expected<std::pair<Pose2D, Eigen::Matrix3d>> RepeatNode::headingAidedPose(double
                                                                          const RepeatEstimate& estimate) {
   const auto odom = odometry_.poseAt(stamp);
   if (!odom) {
-    return Status(StatusCode::kNoConsensus,
+    return Status(StatusCode::kInvalidInput,
                   "mu mode needs odometry ('odom') at the image stamp: " + odom.status().toString());
   }
-  const Pose2D& keyframe = localizer_->route().keyframes[static_cast<std::size_t>(estimate.keyframe)].pose;
-  const double route_yaw = wrapToPi(keyframe.yaw + estimate.heading_correction);
-  if (!heading_aided_.aligned()) {
+  const RouteKeyframe& keyframe = localizer_->route().keyframes[static_cast<std::size_t>(estimate.keyframe)];
+  const double route_yaw = wrapToPi(keyframe.pose.yaw + estimate.heading_correction);
+  const bool aligning = !heading_aided_.aligned();
+  if (aligning) {
     // The repeat run starts at the keyframe the robot was placed at (start_keyframe, or the best
     // match of the global initialization), with the heading vision measures there.
-    const Status aligned = heading_aided_.align(Pose2D(keyframe.x, keyframe.y, route_yaw), *odom);
+    const Status aligned = heading_aided_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
     if (!aligned.isOk()) return aligned;
     ROS_INFO("repeat_node: mu mode: odometry aligned to keyframe %d", estimate.keyframe);
   }
-  const Status corrected = heading_aided_.correctHeading(route_yaw, *odom);
-  if (!corrected.isOk()) return corrected;
+  if (estimate.degraded) {
+    // The temporary reference (the last good frame) has no wall and its pose is itself an
+    // estimate; as a heading fix its μ put the lateral offset into the heading (measured in the
+    // simulator: 15 cm off the path read as 4° and moved the estimate 13 cm the wrong way). No
+    // fix: the odometry carries on, within mu_max_unaided_distance.
+    if (mu_max_unaided_distance_ > 0.0 && heading_aided_.distanceSinceFix() > mu_max_unaided_distance_) {
+      return Status(StatusCode::kNoConsensus, "mu mode: only the temporary reference matched, " +
+                                                  std::to_string(heading_aided_.distanceSinceFix()) +
+                                                  " m since the last fix (mu_max_unaided_distance)");
+    }
+    const auto pose = heading_aided_.routePose(*odom);
+    if (!pose) return pose.status();
+    return std::make_pair(*pose, heading_aided_.covariance());
+  }
+  // A keyframe with a known wall gives the full μ model (heading and lateral offset); a keyframe
+  // without a plane gives a heading-only fix.
+  const Eigen::Vector2d wall_normal =
+      keyframe.plane ? Eigen::Vector2d(keyframe.plane->normal.x(), keyframe.plane->normal.z()) : Eigen::Vector2d::Zero();
+  Status corrected;
+  if (keyframe.plane && wall_normal.norm() > 0.5) {
+    MuObservation observation;
+    observation.mu = estimate.mu;
+    observation.variance = 0.0;  // the filter's mu_variance
+    observation.reference_pose = keyframe.pose;
+    observation.wall_normal = wall_normal.normalized();
+    observation.wall_distance = keyframe.plane->distance / wall_normal.norm();
+    observation.camera_mount = localizer_->route().info.camera_mount;
+    observation.focal_px = localizer_->camera().fx();
+    observation.reference_id = estimate.keyframe;
+    corrected = heading_aided_.correctWithMu(observation, *odom);
+  } else {
+    corrected = heading_aided_.correctHeading(route_yaw, *odom);
+  }
+  // The aligning frame's own fix only waits for the next frame's confirmation: it already gave
+  // the heading.
+  if (!corrected.isOk() && !aligning) return corrected;
   const auto pose = heading_aided_.routePose(*odom);
   if (!pose) return pose.status();
   return std::make_pair(*pose, heading_aided_.covariance());

@@ -102,6 +102,41 @@ TEST(Heading1d, SyntheticLinesFollowTheWallHomography) {
   }
 }
 
+TEST(Heading1d, PlaneHomographyPredictsTheMuOfProjectedLines) {
+  // The μ a camera measures against a reference keyframe, predicted from its pose and the
+  // keyframe's wall (what the μ-mode filter compares with the measurement): lines on the wall
+  // projected into both cameras, the 1D homography fitted to them, μ read off the centred fit.
+  const double phi = -0.25, d = 3.0;
+  const Eigen::Vector2d n(std::sin(phi), std::cos(phi));
+  for (const PlanarPose& pose : {PlanarPose(0.0, 0.0, 0.1), PlanarPose(0.3, 0.5, -0.05),
+                                 PlanarPose(-0.2, 1.2, 0.08)}) {
+    std::vector<LineCorrespondence> lines;
+    for (double s = -2.5; s <= 2.5; s += 0.25) {
+      const Eigen::Vector2d point = n * d + s * Eigen::Vector2d(n.y(), -n.x());
+      const auto x1 = projectVerticalLine(kCamera, PlanarPose(), point, 1000.0);
+      const auto x2 = projectVerticalLine(kCamera, pose, point, 1000.0);
+      if (x1 && x2) lines.push_back({*x1, *x2});
+    }
+    ASSERT_GE(lines.size(), 6u);
+    const auto fitted = estimateHomography1dDlt(lines);
+    ASSERT_TRUE(fitted.isOk());
+    const auto measured = muOf(*fitted, kCamera.x0);
+    const auto predicted = predictedMu(pose, n, d, kCamera.f);
+    ASSERT_TRUE(measured.isOk() && predicted.isOk());
+    EXPECT_NEAR(*predicted, *measured, 1e-6);
+    // Lateral translation over-rotates (MATH.md §4.5): μ is not f tanθ once the camera moved.
+    if (pose.x != 0.0) {
+      EXPECT_GT(std::abs(*predicted - kCamera.f * std::tan(pose.theta)), 10.0);
+    }
+  }
+  EXPECT_EQ(predictedMu(PlanarPose(), Eigen::Vector2d(1.0, 1.0), d, kCamera.f).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(predictedMu(PlanarPose(), n, 0.0, kCamera.f).status().code(), StatusCode::kInvalidInput);
+  // Behind the wall: the wall is not in front of the current camera.
+  EXPECT_EQ(predictedMu(PlanarPose(0.0, 4.0, 0.0), Eigen::Vector2d(0.0, 1.0), d, kCamera.f).status().code(),
+            StatusCode::kDegenerate);
+}
+
 TEST(Heading1d, BadInput) {
   const Eigen::Matrix2d H = wallHomography(0.1, Eigen::Vector2d::Zero(), 0.0, 5.0);
   EXPECT_EQ(headingFromMu(H, LineCamera{std::nan(""), 320.0}).status().code(),

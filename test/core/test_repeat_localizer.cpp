@@ -137,7 +137,8 @@ TEST_F(RepeatLocalizerTest, MuModeSkipsTurnKeyframes) {
   auto localizer = RepeatLocalizer::create(turning, options);
   ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
   EXPECT_FALSE(localizer->isTurnKeyframe(0));
-  EXPECT_FALSE(localizer->isTurnKeyframe(2));
+  EXPECT_FALSE(localizer->isTurnKeyframe(1));
+  EXPECT_TRUE(localizer->isTurnKeyframe(2));  // where the teach run started turning
   EXPECT_TRUE(localizer->isTurnKeyframe(3));
   const PlanarPose camera = rep103ToCameraAxes(turning.keyframes[2].pose);
   localizer->setTrackedKeyframe(3);

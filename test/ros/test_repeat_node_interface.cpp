@@ -234,7 +234,8 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   EXPECT_EQ(poses.size(), poses_at_fix + 1);
 
   // A heading fix 0.15 rad away from the heading the odometry carries (the odometry did not turn)
-  // is refused by the mu gate, naming the odometry.
+  // is refused: its μ changed by ~75 px since the previous fix against the same keyframe, the
+  // odometry predicts no change.
   publishOdometryAround(odom_pub, 306.0, 5.0);
   auto turned = test_support::makeImage(
       wall.imageAt(PlanarPose(camera_pose.x, camera_pose.z, camera_pose.theta + 0.15)), "mono8");

@@ -5,8 +5,8 @@
 //             odom (nav_msgs/Odometry; the position of the mu mode and the optional map -> odom tf)
 // Publishes:  ~pose (geometry_msgs/PoseWithCovarianceStamped): base_link in the route frame
 //             (`map_frame`), successful estimates only: fast_hd and classic from the image; mu
-//             from the heading-aided odometry (odometry position, visual heading; its covariance
-//             is the model of heading_aided_odometry.h). Covariance row-major (x, y, z, roll,
+//             from the heading-aided odometry (an EKF on odometry corrected by μ; its covariance
+//             is the filter's, heading_aided_odometry.h). Covariance row-major (x, y, z, roll,
 //             pitch, yaw); fast_hd/classic poses that disagree with the odometry motion since the
 //             last accepted pose are refused (odometry_gate.h; counted as failures); z, roll and pitch are not estimated and get `unobserved_variance`
 //             (classic mode: every entry, it has no covariance model);
@@ -65,14 +65,12 @@ class RepeatNode {
   // Seconds (ROS time) since the last image, or since the start when none came yet; mutex_ held.
   double cameraSilence() const;
   void onReconfigure(RepeatConfig& config, uint32_t level);
-  // mu mode: the pose from the odometry at the image stamp with the visual heading; kNoConsensus
-  // without odometry at that stamp.
+  // mu mode: the heading-aided odometry at the image stamp corrected by the frame's μ; kNoConsensus
+  // without odometry at that stamp or when the filter refuses the fix.
   Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
   // mu mode: the heading the heading-aided odometry predicts at `stamp` (the localizer tries only
   // keyframes facing that way); nullopt before the first fix or without odometry.
   std::optional<double> predictedMuYaw(double stamp);
-  // mu mode: the heading fix of `estimate` against the heading-aided odometry (mu_gate_).
-  Status checkMuFix(double stamp, const RepeatEstimate& estimate);
   // mu mode, the frame failed: the heading-aided odometry alone (its covariance keeps growing)
   // while the robot has travelled at most mu_max_unaided_distance since the last heading fix.
   void publishUnaidedMuPose(const std_msgs::Header& image_header);
@@ -97,7 +95,6 @@ class RepeatNode {
   OdometryBuffer odometry_;
   HeadingAidedOdometry heading_aided_;
   std::optional<OdometryGate> odometry_gate_;  // fast_hd/classic poses checked against odometry
-  std::optional<OdometryGate> mu_gate_;        // mu heading fixes checked against odometry
   Status last_status_{StatusCode::kInvalidInput, "no image received yet"};
   unsigned frames_ = 0, failures_ = 0, degraded_ = 0, gated_ = 0;
   int last_inliers_ = 0;
