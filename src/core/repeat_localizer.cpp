@@ -16,11 +16,15 @@
 namespace homography_teach_repeat {
 namespace {
 
-// A keyframe reached turning in place: its yaw differs from the previous (or the next) keyframe's by more than
+// The teach run turned between two keyframes: their yaws differ by more than
 // kTurnKeyframeAngle [rad] + kTurnKeyframeRate [rad/m] · their distance (driving a straight
 // segment, the teach run's heading varies by a few degrees over the keyframe spacing).
 constexpr double kTurnKeyframeAngle = 0.1;
 constexpr double kTurnKeyframeRate = 1.0;
+
+bool turnedBetween(const Pose2D& a, const Pose2D& b) {
+  return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
+}
 
 // The reference keyframe's yaw rotates the relative covariance into the route frame.
 Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& covariance, double yaw) {
@@ -123,11 +127,9 @@ Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const Repe
       if (k > 0) {
         // A corner keyframe: reached turning, or where the teach run started turning (its
         // heading is the straight segment's, but the walls of the corner are as near).
-        const auto turned = [&](const Pose2D& a, const Pose2D& b) {
-          return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
-        };
-        reference.turn = turned(route.keyframes[k - 1].pose, route.keyframes[k].pose) ||
-                         (k + 1 < route.keyframes.size() && turned(route.keyframes[k].pose, route.keyframes[k + 1].pose));
+        reference.turn = turnedBetween(route.keyframes[k - 1].pose, route.keyframes[k].pose) ||
+                         (k + 1 < route.keyframes.size() &&
+                          turnedBetween(route.keyframes[k].pose, route.keyframes[k + 1].pose));
       }
       localizer.keyframes_.push_back(std::move(reference));
     }
