@@ -134,17 +134,6 @@ Status HeadingAidedOdometry::correctWithMu(const MuObservation& observation, con
   if (!predicted_to_fix.isOk()) return predicted_to_fix;
   const auto predicted = muAt(observation, estimate_);
   if (!predicted) return predicted.status();
-  // ∂μ/∂(x, y, yaw) by central differences: μ is smooth and three evaluations cost microseconds.
-  Eigen::RowVector3d jacobian;
-  const double steps[3] = {1e-5, 1e-5, 1e-6};
-  for (int i = 0; i < 3; ++i) {
-    Pose2D plus = estimate_, minus = estimate_;
-    (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
-    (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
-    const auto mu_plus = muAt(observation, plus), mu_minus = muAt(observation, minus);
-    if (!mu_plus || !mu_minus) return mu_plus ? mu_minus.status() : mu_plus.status();
-    jacobian(i) = (*mu_plus - *mu_minus) / (2.0 * steps[i]);
-  }
   // Confirmation by the previous frame: the measured change of μ against the change the
   // prediction gives between the two robot poses (the previous one: the current prediction moved
   // back by the odometry between them).
@@ -165,6 +154,18 @@ Status HeadingAidedOdometry::correctWithMu(const MuObservation& observation, con
                   "frame (max_mu_step_px %.1f): a wrong line association in one of them",
                   step_error, options_.max_mu_step_px);
     return Status(StatusCode::kNoConsensus, message);
+  }
+  // ∂μ/∂(x, y, yaw) by central differences (only for a confirmed fix): μ is smooth and six
+  // evaluations cost microseconds.
+  Eigen::RowVector3d jacobian;
+  const double steps[3] = {1e-5, 1e-5, 1e-6};
+  for (int i = 0; i < 3; ++i) {
+    Pose2D plus = estimate_, minus = estimate_;
+    (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
+    (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
+    const auto mu_plus = muAt(observation, plus), mu_minus = muAt(observation, minus);
+    if (!mu_plus || !mu_minus) return mu_plus ? mu_minus.status() : mu_plus.status();
+    jacobian(i) = (*mu_plus - *mu_minus) / (2.0 * steps[i]);
   }
   return update(observation.mu - *predicted, jacobian, std::max(observation.variance, options_.min_mu_variance),
                 "mu fix");
