@@ -27,6 +27,7 @@
 
 #include <optional>
 
+#include "homography_teach_repeat/fast_hd.h"
 #include "homography_teach_repeat/planar_pose.h"
 #include "homography_teach_repeat/status.h"
 
@@ -67,6 +68,16 @@ struct MuObservation {
   int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
 };
 
+// The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
+// camera frame) for a μ observation (mu left 0); nullopt without a plane or for a plane that is
+// not a wall (|(nx, nz)| <= 0.5: floor or ceiling, where μ says nothing about it).
+std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
+                                      const Pose2D& camera_mount, double focal_px, int reference_id);
+// The centred 1D homography the observation's wall induces between the reference camera and the
+// camera of a robot at `base` (route frame), MATH.md §4.4 (planeHomography1d); its h12/h22 is the
+// μ the filter predicts, and it tells the line matcher where the reference lines should be.
+Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
+
 class HeadingAidedOdometry {
  public:
   // Throws std::invalid_argument on invalid options.
@@ -101,6 +112,9 @@ class HeadingAidedOdometry {
   Pose2D alignment() const;
 
  private:
+  // The odometry motion since the last prediction (kInvalidInput: non-finite odometry,
+  // kNoConsensus: not aligned yet).
+  Expected<Pose2D> odometryStepTo(const Pose2D& odom_pose) const;
   Status predict(const Pose2D& odom_pose);
   // Scalar EKF update; `innovation` = measured − predicted, `jacobian` = ∂predicted/∂(x, y, yaw).
   Status update(double innovation, const Eigen::RowVector3d& jacobian, double variance, const char* what);

@@ -74,7 +74,7 @@ struct RepeatOptions {
   //    next keyframe) give no
   //    heading fix when `mu_skip_turn_keyframes`: at a corner the walls are about 1 m away and
   //    such fixes were 5-12° off in the simulator with the robot within 3 cm of the keyframe;
-  //  - with a heading prior (localize()'s `predicted_yaw`), only keyframes whose yaw is within
+  //  - with a pose prior (localize()'s `predicted_pose`), only keyframes whose yaw is within
   //    `mu_max_reference_angle` [rad] of it are tried (a keyframe 60-90° away from the robot's
   //    heading shares no lines with the image, and a wrong association gave fixes 90° off).
   bool mu_skip_turn_keyframes = true;
@@ -134,10 +134,12 @@ class RepeatLocalizer {
   static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
 
   // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the
-  // failure of the last reference tried (never a pose). mu mode: `predicted_yaw` (route frame,
+  // failure of the last reference tried (never a pose). mu mode: `predicted_pose` (route frame,
   // e.g. the heading-aided odometry's) restricts the references to those facing the same way
-  // (RepeatOptions::mu_max_reference_angle); ignored in the other modes and when not finite.
-  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<double> predicted_yaw = std::nullopt);
+  // (RepeatOptions::mu_max_reference_angle) and guides the line matching: by the 1D homography
+  // of the keyframe's wall at that pose (wallHomography1dAt), or by the rotation alone for a
+  // reference without a wall. Ignored in the other modes and when not finite.
+  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose = std::nullopt);
 
   // Of the last localize() call (initializeGlobally: of its last localize()), failed ones too.
   const LocalizeTiming& lastTiming() const { return timing_; }
@@ -168,8 +170,8 @@ class RepeatLocalizer {
     double heading_offset = 0.0;      // mu mode: yaw of this reference relative to its keyframe
     bool turn = false;                // reached turning in place (isTurnKeyframe)
   };
-  // mu mode: whether a reference may give a heading fix to a robot heading `predicted_yaw`.
-  bool usableForMu(const Reference& reference, int keyframe, std::optional<double> predicted_yaw) const;
+  // mu mode: whether a reference may give a heading fix to a robot at `predicted_pose`.
+  bool usableForMu(const Reference& reference, int keyframe, const std::optional<Pose2D>& predicted_pose) const;
 
   RepeatLocalizer(const Route& route, const RepeatOptions& options);
   // The inlier matches of the last estimate, carried to the next frames by optical flow.
@@ -184,11 +186,11 @@ class RepeatLocalizer {
   // Keeps the estimate's inliers for tracking (or forgets them: degraded, mu, tracking off).
   void rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked);
 
-  // mu mode: `predicted_yaw` (route frame) guides the line matching (HeadingCorrector).
+  // mu mode: `predicted_pose` (route frame) guides the line matching (HeadingCorrector).
   Expected<RepeatEstimate> localizeAgainst(const Reference& reference, int keyframe,
                                            const ImageFeatures& features,
                                            const std::vector<VerticalLine>& lines,
-                                           std::optional<double> predicted_yaw = std::nullopt) const;
+                                           const std::optional<Pose2D>& predicted_pose = std::nullopt) const;
   // fast_hd/classic: the pose from point matches against `reference` (pixels as measured).
   Expected<RepeatEstimate> estimateFromMatches(const Reference& reference, int keyframe,
                                                const PointMatches& measured) const;

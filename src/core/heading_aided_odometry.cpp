@@ -26,12 +26,34 @@ void requirePositive(double value, const char* name) {
 
 // μ a camera at base pose `base` (route frame) measures against the observation's reference.
 Expected<double> muAt(const MuObservation& observation, const Pose2D& base) {
-  const CameraMount mount(observation.camera_mount.x, observation.camera_mount.y, observation.camera_mount.yaw);
-  const PlanarPose camera = mount.baseToCamera(observation.reference_pose.inverse().compose(base));
-  return predictedMu(camera, observation.wall_normal, observation.wall_distance, observation.focal_px);
+  const auto H = wallHomography1dAt(observation, base);
+  if (!H) return H.status();
+  return (*H)(0, 1) / (*H)(1, 1);
 }
 
 }  // namespace
+
+std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
+                                      const Pose2D& camera_mount, double focal_px, int reference_id) {
+  if (!plane) return std::nullopt;
+  const Eigen::Vector2d normal(plane->normal.x(), plane->normal.z());
+  if (!(normal.norm() > 0.5) || !(plane->distance > 0.0)) return std::nullopt;
+  MuObservation wall;
+  wall.reference_pose = reference_pose;
+  // The wall's line in the (x, z) plane: n·X = d with the unit horizontal part of n.
+  wall.wall_normal = normal.normalized();
+  wall.wall_distance = plane->distance / normal.norm();
+  wall.camera_mount = camera_mount;
+  wall.focal_px = focal_px;
+  wall.reference_id = reference_id;
+  return wall;
+}
+
+Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base) {
+  const CameraMount mount(wall.camera_mount.x, wall.camera_mount.y, wall.camera_mount.yaw);
+  const PlanarPose camera = mount.baseToCamera(wall.reference_pose.inverse().compose(base));
+  return planeHomography1d(camera, wall.wall_normal, wall.wall_distance, wall.focal_px);
+}
 
 void HeadingAidedOdometryOptions::validate() const {
   requireNonNegative(initial_position_variance, "initial_position_variance");
@@ -72,10 +94,16 @@ Status HeadingAidedOdometry::align(const Pose2D& route_pose, const Pose2D& odom_
 
 Pose2D HeadingAidedOdometry::alignment() const { return estimate_.compose(last_odom_.inverse()); }
 
-Status HeadingAidedOdometry::predict(const Pose2D& odom_pose) {
+Expected<Pose2D> HeadingAidedOdometry::odometryStepTo(const Pose2D& odom_pose) const {
   if (!odom_pose.isFinite()) return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite odometry");
   if (!aligned_) return Status(StatusCode::kNoConsensus, "heading-aided odometry: not aligned yet");
-  const Pose2D step = last_odom_.inverse().compose(odom_pose);
+  return last_odom_.inverse().compose(odom_pose);
+}
+
+Status HeadingAidedOdometry::predict(const Pose2D& odom_pose) {
+  const auto odometry_step = odometryStepTo(odom_pose);
+  if (!odometry_step) return odometry_step.status();
+  const Pose2D& step = *odometry_step;
   const double c = std::cos(estimate_.yaw), s = std::sin(estimate_.yaw);
   Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
   F(0, 2) = -s * step.x - c * step.y;
@@ -182,9 +210,9 @@ Status HeadingAidedOdometry::correctHeading(double route_yaw, const Pose2D& odom
 }
 
 Expected<Pose2D> HeadingAidedOdometry::predictedPose(const Pose2D& odom_pose) const {
-  if (!odom_pose.isFinite()) return Status(StatusCode::kInvalidInput, "heading-aided odometry: non-finite odometry");
-  if (!aligned_) return Status(StatusCode::kNoConsensus, "heading-aided odometry: not aligned yet");
-  Pose2D pose = estimate_.compose(last_odom_.inverse().compose(odom_pose));
+  const auto step = odometryStepTo(odom_pose);
+  if (!step) return step.status();
+  Pose2D pose = estimate_.compose(*step);
   pose.yaw = wrapToPi(pose.yaw);
   return pose;
 }

@@ -25,18 +25,28 @@ Expected<HeadingCorrection> HeadingCorrector::estimate(const std::vector<Vertica
                                                       const std::vector<VerticalLine>& current,
                                                       double predicted_theta) const {
   if (!std::isfinite(predicted_theta)) predicted_theta = 0.0;
-  // The reference lines where a pure rotation by predicted_theta puts them (MATH.md §4.4 with
-  // t = 0: x' = f (c x + f s)/(−s x + f c), centred), for the matcher only.
+  // A pure rotation (MATH.md §4.4 with t = 0): x' = f (c x + f s)/(−s x + f c), centred.
+  const double c = std::cos(predicted_theta), s = std::sin(predicted_theta), f = camera_.f;
+  Eigen::Matrix2d rotation;
+  rotation << c, f * s, -s / f, c;
+  return estimate(reference, current, rotation);
+}
+
+Expected<HeadingCorrection> HeadingCorrector::estimate(const std::vector<VerticalLine>& reference,
+                                                      const std::vector<VerticalLine>& current,
+                                                      const Eigen::Matrix2d& predicted_centred_H) const {
+  const bool guided = predicted_centred_H.allFinite() && !predicted_centred_H.isIdentity(0.0);
+  // The reference lines where the prediction puts them, for the matcher only.
   std::vector<VerticalLine> moved;
   std::vector<int> original;  // index into `reference` of each moved line
-  const double c = std::cos(predicted_theta), s = std::sin(predicted_theta), f = camera_.f;
+  const Eigen::Matrix2d& G = predicted_centred_H;
   for (std::size_t i = 0; i < reference.size(); ++i) {
     VerticalLine line = reference[i];
-    if (predicted_theta != 0.0) {
+    if (guided) {
       const double x = line.x - camera_.x0;
-      const double denominator = -s * x + f * c;
-      if (!(denominator > 0.0)) continue;  // behind the rotated camera
-      line.x = camera_.x0 + f * (c * x + f * s) / denominator;
+      const double denominator = G(1, 0) * x + G(1, 1);
+      if (!(denominator > 0.0)) continue;  // behind the predicted camera
+      line.x = camera_.x0 + (G(0, 0) * x + G(0, 1)) / denominator;
     }
     moved.push_back(line);
     original.push_back(static_cast<int>(i));

@@ -9,6 +9,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "homography_teach_repeat/fast_hd.h"
+#include "homography_teach_repeat/heading_aided_odometry.h"
 #include "homography_teach_repeat/homography.h"
 #include "homography_teach_repeat/homography_decomposition.h"
 #include "homography_teach_repeat/plane_estimation.h"
@@ -211,16 +212,28 @@ Status RepeatLocalizer::checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePl
 Expected<RepeatEstimate> RepeatLocalizer::localizeAgainst(const Reference& reference, int keyframe,
                                                           const ImageFeatures& features,
                                                           const std::vector<VerticalLine>& lines,
-                                                          std::optional<double> predicted_yaw) const {
+                                                          const std::optional<Pose2D>& predicted_pose) const {
   RepeatEstimate estimate;
   estimate.mode = options_.mode;
   estimate.keyframe = keyframe;
   if (options_.mode == RepeatMode::kMu) {
     const HeadingCorrector corrector(options_.heading, LineCamera{camera_.fx(), camera_.cx()});
+    const bool prior = predicted_pose && predicted_pose->isFinite();
+    // Guided matching: the keyframe's wall at the predicted pose moves the lines by the offset
+    // and depth change as well as the rotation; a reference without a wall (the temporary one of
+    // this mode has no plane, nor has a keyframe on the floor) by the rotation only.
+    std::optional<Eigen::Matrix2d> wall_guide;
+    if (prior) {
+      if (const auto wall = muWallOf(reference.base_pose, reference.plane, route_.info.camera_mount, camera_.fx(),
+                                     keyframe)) {
+        const auto H = wallHomography1dAt(*wall, *predicted_pose);
+        if (H) wall_guide = *H;
+      }
+    }
     const double reference_yaw = route_.keyframes[static_cast<std::size_t>(keyframe)].pose.yaw + reference.heading_offset;
-    const double predicted_theta =
-        predicted_yaw && std::isfinite(*predicted_yaw) ? wrapToPi(*predicted_yaw - reference_yaw) : 0.0;
-    const auto correction = corrector.estimate(reference.lines, lines, predicted_theta);
+    const auto correction =
+        wall_guide ? corrector.estimate(reference.lines, lines, *wall_guide)
+                   : corrector.estimate(reference.lines, lines, prior ? wrapToPi(predicted_pose->yaw - reference_yaw) : 0.0);
     if (!correction) return correction.status();
     estimate.matches = correction->line_matches;
     estimate.inliers = correction->inliers;
@@ -348,12 +361,12 @@ bool RepeatLocalizer::isTurnKeyframe(int keyframe) const {
 }
 
 bool RepeatLocalizer::usableForMu(const Reference& reference, int keyframe,
-                                  std::optional<double> predicted_yaw) const {
+                                  const std::optional<Pose2D>& predicted_pose) const {
   if (options_.mu_skip_turn_keyframes && reference.turn) return false;
-  if (!predicted_yaw || !std::isfinite(*predicted_yaw)) return true;
+  if (!predicted_pose || !std::isfinite(predicted_pose->yaw)) return true;
   const double reference_yaw =
       route_.keyframes[static_cast<std::size_t>(keyframe)].pose.yaw + reference.heading_offset;
-  return std::abs(wrapToPi(reference_yaw - *predicted_yaw)) <= options_.mu_max_reference_angle;
+  return std::abs(wrapToPi(reference_yaw - predicted_pose->yaw)) <= options_.mu_max_reference_angle;
 }
 
 namespace {
@@ -364,7 +377,7 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<double> predicted_yaw) {
+Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose) {
   timing_ = LocalizeTiming();
   const auto extraction_start = std::chrono::steady_clock::now();
   if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
@@ -406,7 +419,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
   // Against one reference, counted and timed.
   auto localizeAgainstTimed = [&](const Reference& reference, int keyframe) {
     ++timing_.references_tried;
-    auto estimate = localizeAgainst(reference, keyframe, features, lines, predicted_yaw);
+    auto estimate = localizeAgainst(reference, keyframe, features, lines, predicted_pose);
     timing_.references_ms = millisecondsSince(references_start);
     return estimate;
   };
@@ -427,7 +440,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
   Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
   if (options_.mode == RepeatMode::kMu) {
     const auto unusable = [&](int k) {
-      return !usableForMu(keyframes_[static_cast<std::size_t>(k)], k, predicted_yaw);
+      return !usableForMu(keyframes_[static_cast<std::size_t>(k)], k, predicted_pose);
     };
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(), unusable), candidates.end());
     if (candidates.empty()) {
@@ -466,7 +479,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
     return estimate;
   }
   const bool temporary_usable =
-      temporary_ && (options_.mode != RepeatMode::kMu || usableForMu(*temporary_, temporary_keyframe_, predicted_yaw));
+      temporary_ && (options_.mode != RepeatMode::kMu || usableForMu(*temporary_, temporary_keyframe_, predicted_pose));
   if (temporary_usable && degraded_frames_ < options_.max_degraded_frames) {
     auto estimate = localizeAgainstTimed(*temporary_, temporary_keyframe_);
     if (estimate) {

@@ -285,7 +285,7 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
   }
   const auto cv_image = ros_conversions::toCvImage(image);
   if (!cv_image) return fail(cv_image.status());
-  const auto estimate = initialized_ ? localizer_->localize(*cv_image, predictedMuYaw(image->header.stamp.toSec()))
+  const auto estimate = initialized_ ? localizer_->localize(*cv_image, predictedMuPose(image->header.stamp.toSec()))
                                      : localizer_->initializeGlobally(*cv_image);
   frame_localize_timing_ = localizer_->lastTiming();
   if (!estimate) {
@@ -360,24 +360,39 @@ void RepeatNode::processImage(const sensor_msgs::ImageConstPtr& image,
   if (publish_tf_) publishMapToOdom(image->header.stamp, heading_aided_.alignment());
 }
 
-std::optional<double> RepeatNode::predictedMuYaw(double stamp) {
+std::optional<Pose2D> RepeatNode::predictedMuPose(double stamp) {
   if (mode_ != RepeatMode::kMu || !heading_aided_.aligned()) return std::nullopt;
   const auto odom = odometry_.poseNear(stamp, kOdometryLagForGate);
   if (!odom) return std::nullopt;
   const auto predicted = heading_aided_.predictedPose(*odom);
   if (!predicted) return std::nullopt;
-  return predicted->yaw;
+  return *predicted;
+}
+
+Expected<Pose2D> RepeatNode::unaidedMuPose(const Pose2D& odom) {
+  if (!(mu_max_unaided_distance_ > 0.0)) {
+    return Status(StatusCode::kNoConsensus, "mu mode: no heading fix in this frame and mu_max_unaided_distance is 0 "
+                                            "(no pose from the odometry alone)");
+  }
+  const auto pose = heading_aided_.routePose(odom);
+  if (!pose) return pose.status();
+  if (heading_aided_.distanceSinceFix() > mu_max_unaided_distance_) {
+    char message[160];
+    std::snprintf(message, sizeof(message),
+                  "mu mode: %.2f m without a heading fix (mu_max_unaided_distance %.2f m): no pose until vision "
+                  "is back", heading_aided_.distanceSinceFix(), mu_max_unaided_distance_);
+    return Status(StatusCode::kNoConsensus, message);
+  }
+  return pose;
 }
 
 void RepeatNode::publishUnaidedMuPose(const std_msgs::Header& image_header) {
-  if (!heading_aided_.aligned() || !(mu_max_unaided_distance_ > 0.0)) return;
+  if (!heading_aided_.aligned()) return;
   const auto odom = odometry_.poseAt(image_header.stamp.toSec());
   if (!odom) return;
-  const auto pose = heading_aided_.routePose(*odom);
-  if (!pose) return;
-  if (heading_aided_.distanceSinceFix() > mu_max_unaided_distance_) {
-    ROS_WARN_THROTTLE(2.0, "repeat_node: mu mode: %.2f m without a heading fix (mu_max_unaided_distance %.2f m): "
-                      "no pose until vision is back", heading_aided_.distanceSinceFix(), mu_max_unaided_distance_);
+  const auto pose = unaidedMuPose(*odom);
+  if (!pose) {
+    ROS_WARN_THROTTLE(2.0, "repeat_node: %s", pose.status().message().c_str());
     return;
   }
   localizer_->advanceTrackingTo(*pose);
@@ -408,31 +423,19 @@ Expected<std::pair<Pose2D, Eigen::Matrix3d>> RepeatNode::headingAidedPose(double
     // estimate; as a heading fix its μ put the lateral offset into the heading (measured in the
     // simulator: 15 cm off the path read as 4° and moved the estimate 13 cm the wrong way). No
     // fix: the odometry carries on, within mu_max_unaided_distance.
-    if (mu_max_unaided_distance_ > 0.0 && heading_aided_.distanceSinceFix() > mu_max_unaided_distance_) {
-      return Status(StatusCode::kNoConsensus, "mu mode: only the temporary reference matched, " +
-                                                  std::to_string(heading_aided_.distanceSinceFix()) +
-                                                  " m since the last fix (mu_max_unaided_distance)");
-    }
-    const auto pose = heading_aided_.routePose(*odom);
-    if (!pose) return pose.status();
+    const auto pose = unaidedMuPose(*odom);
+    if (!pose) return Status(pose.status().code(), "only the temporary reference matched; " + pose.status().message());
     return std::make_pair(*pose, heading_aided_.covariance());
   }
   // A keyframe with a known wall gives the full μ model (heading and lateral offset); a keyframe
   // without a plane gives a heading-only fix.
-  const Eigen::Vector2d wall_normal =
-      keyframe.plane ? Eigen::Vector2d(keyframe.plane->normal.x(), keyframe.plane->normal.z()) : Eigen::Vector2d::Zero();
+  auto wall = muWallOf(keyframe.pose, keyframe.plane, localizer_->route().info.camera_mount,
+                       localizer_->camera().fx(), estimate.keyframe);
   Status corrected;
-  if (keyframe.plane && wall_normal.norm() > 0.5) {
-    MuObservation observation;
-    observation.mu = estimate.mu;
-    observation.variance = 0.0;  // the filter's mu_variance
-    observation.reference_pose = keyframe.pose;
-    observation.wall_normal = wall_normal.normalized();
-    observation.wall_distance = keyframe.plane->distance / wall_normal.norm();
-    observation.camera_mount = localizer_->route().info.camera_mount;
-    observation.focal_px = localizer_->camera().fx();
-    observation.reference_id = estimate.keyframe;
-    corrected = heading_aided_.correctWithMu(observation, *odom);
+  if (wall) {
+    wall->mu = estimate.mu;
+    wall->variance = 0.0;  // the filter's mu_variance
+    corrected = heading_aided_.correctWithMu(*wall, *odom);
   } else {
     corrected = heading_aided_.correctHeading(route_yaw, *odom);
   }

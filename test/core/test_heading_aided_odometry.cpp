@@ -222,5 +222,39 @@ TEST(HeadingAidedOdometry, BadInputIsAStatusNeverAPose) {
   EXPECT_THROW(HeadingAidedOdometry{bad}, std::invalid_argument);
 }
 
+// The wall of a keyframe from its scene plane: the horizontal part of the normal, the distance to
+// the wall's line in the (x, z) plane; and its 1D homography's μ is the filter's measurement model.
+// A floor or ceiling plane (or none) is no wall.
+TEST(HeadingAidedOdometry, KeyframeWallFromItsScenePlane) {
+  ScenePlane tilted;
+  tilted.normal = Eigen::Vector3d(0.3, 0.1, 0.9).normalized();
+  tilted.distance = 2.0;
+  const Pose2D keyframe(1.0, 2.0, 0.5), mount(0.2, 0.0, 0.0);
+  const auto wall = muWallOf(keyframe, tilted, mount, 500.0, 7);
+  ASSERT_TRUE(wall.has_value());
+  const double horizontal = std::hypot(tilted.normal.x(), tilted.normal.z());
+  EXPECT_NEAR(wall->wall_normal.norm(), 1.0, 1e-12);
+  EXPECT_NEAR(wall->wall_normal.x(), tilted.normal.x() / horizontal, 1e-12);
+  EXPECT_NEAR(wall->wall_distance, 2.0 / horizontal, 1e-12);
+  EXPECT_EQ(wall->reference_id, 7);
+  // At the keyframe itself the wall's homography is the identity (μ = 0); elsewhere μ is
+  // predictedMu of the camera pose in the keyframe camera frame.
+  const auto at_keyframe = wallHomography1dAt(*wall, keyframe);
+  ASSERT_TRUE(at_keyframe.isOk());
+  EXPECT_NEAR((*at_keyframe / (*at_keyframe)(1, 1) - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-12);
+  const Pose2D moved = keyframe.compose(Pose2D(0.4, 0.1, 0.05));
+  const auto H = wallHomography1dAt(*wall, moved);
+  ASSERT_TRUE(H.isOk());
+  const CameraMount camera_mount(0.2, 0.0, 0.0);
+  const double mu = *predictedMu(camera_mount.baseToCamera(Pose2D(0.4, 0.1, 0.05)), wall->wall_normal,
+                                 wall->wall_distance, 500.0);
+  EXPECT_NEAR((*H)(0, 1) / (*H)(1, 1), mu, 1e-9);
+  EXPECT_GT(std::abs(mu), 10.0);
+  ScenePlane floor;
+  floor.normal = Eigen::Vector3d(0.0, 1.0, 0.0);
+  EXPECT_FALSE(muWallOf(keyframe, floor, mount, 500.0, 0).has_value());
+  EXPECT_FALSE(muWallOf(keyframe, std::nullopt, mount, 500.0, 0).has_value());
+}
+
 }  // namespace
 }  // namespace homography_teach_repeat

@@ -165,13 +165,13 @@ TEST_F(RepeatLocalizerTest, MuModeTriesOnlyKeyframesFacingThePredictedHeading) {
   const PlanarPose turned(camera.x, camera.z, camera.theta + 0.03);
   const cv::Mat image = wall_->imageAt(turned);
   localizer->setTrackedKeyframe(2);
-  const auto near = localizer->localize(image, keyframe.yaw + 0.03);
+  const auto near = localizer->localize(image, Pose2D(keyframe.x, keyframe.y, keyframe.yaw + 0.03));
   ASSERT_TRUE(near.isOk()) << near.status().toString();
   EXPECT_NEAR(near->heading_correction, 0.03, 0.15 * M_PI / 180.0);
-  const auto far = localizer->localize(image, keyframe.yaw + 0.5);
+  const auto far = localizer->localize(image, Pose2D(keyframe.x, keyframe.y, keyframe.yaw + 0.5));
   ASSERT_FALSE(far.isOk());
   EXPECT_EQ(far.status().code(), StatusCode::kNoConsensus);
-  EXPECT_TRUE(localizer->localize(image, NAN).isOk());  // no usable prior: every keyframe
+  EXPECT_TRUE(localizer->localize(image, Pose2D(keyframe.x, keyframe.y, NAN)).isOk());  // no usable prior: every keyframe
   options.mu_max_reference_angle = 0.0;
   EXPECT_FALSE(RepeatLocalizer::create(route(), options).isOk());
 }

@@ -68,11 +68,15 @@ class RepeatNode {
   // mu mode: the heading-aided odometry at the image stamp corrected by the frame's μ; kNoConsensus
   // without odometry at that stamp or when the filter refuses the fix.
   Expected<std::pair<Pose2D, Eigen::Matrix3d>> headingAidedPose(double stamp, const RepeatEstimate& estimate);
-  // mu mode: the heading the heading-aided odometry predicts at `stamp` (the localizer tries only
-  // keyframes facing that way); nullopt before the first fix or without odometry.
-  std::optional<double> predictedMuYaw(double stamp);
-  // mu mode, the frame failed: the heading-aided odometry alone (its covariance keeps growing)
-  // while the robot has travelled at most mu_max_unaided_distance since the last heading fix.
+  // mu mode: the pose the heading-aided odometry predicts at `stamp` (the localizer tries only
+  // keyframes facing that way and matches lines where it puts them); nullopt before the first
+  // fix or without odometry.
+  std::optional<Pose2D> predictedMuPose(double stamp);
+  // mu mode, a frame without a heading fix: the heading-aided odometry alone at `odom` (its
+  // covariance keeps growing) while the robot has travelled at most mu_max_unaided_distance
+  // (> 0) since the last fix; kNoConsensus naming the distance otherwise.
+  Expected<Pose2D> unaidedMuPose(const Pose2D& odom);
+  // mu mode, the frame failed: publishes unaidedMuPose at the image stamp (or warns why not).
   void publishUnaidedMuPose(const std_msgs::Header& image_header);
   void publishPose(const std_msgs::Header& image_header, const Pose2D& pose,
                    const Eigen::Matrix3d* covariance);
