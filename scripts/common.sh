@@ -12,7 +12,7 @@ export PATH=/usr/bin:$PATH
 HTR_DEBIAN_PACKAGES=(
   build-essential cmake pkg-config git
   catkin catkin-lint rosbash
-  libroscpp-dev librosbag-dev python3-rosbag librostest-dev python3-rostest
+  libroscpp-dev librosbag-dev python3-rosbag python3-nav-msgs librostest-dev python3-rostest
   libactionlib-dev libactionlib-msgs-dev ros-actionlib-msgs python3-actionlib
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev

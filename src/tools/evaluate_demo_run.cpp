@@ -5,7 +5,11 @@
 // Writes DIR/metrics.json: {"laps", "mode", "final_pos_err_m", "final_heading_err_deg",
 // "max_pos_err_m", "mean_pos_err_m", "final_path_err_m", "odometry_only_final_pos_err_m",
 // "odometry_only_final_heading_err_deg", "odometry_only_max_pos_err_m", "samples",
-// "controller_state"}. "final": the last ground-truth sample of the run against the pose the run
+// "controller_state", "finished", "distance_travelled_m", "route_distance_m"}. "finished": the
+// controller's last state was "finished" (a robot that never left the start is 0 m from the end
+// pose: the errors alone would call that a success); distance_travelled_m: along the ground truth;
+// route_distance_m: laps × the taught path. Exit code 3 when the run did not finish (metrics and
+// plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
 // must end at (a loop: its first keyframe, where the robot started; an open route: its last);
 // max/mean/final_path: distance to the polyline through the taught keyframes. And
 // DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
@@ -100,6 +104,18 @@ int main(int argc, char** argv) {
     metrics["final_path_err_m"] = htr::deviationFromPath(path, run.truth.back()).distance;
     metrics["samples"] = run.truth.size();
     metrics["controller_state"] = run.last_state;
+    const bool finished = run.last_state.rfind("finished", 0) == 0;
+    metrics["finished"] = finished;
+    double travelled = 0.0, route_length = 0.0;
+    for (std::size_t i = 1; i < run.truth.size(); ++i) {
+      travelled += std::hypot(run.truth[i].x - run.truth[i - 1].x, run.truth[i].y - run.truth[i - 1].y);
+    }
+    for (std::size_t i = 1; i < path.size(); ++i) {
+      route_length += std::hypot(path[i].x - path[i - 1].x, path[i].y - path[i - 1].y);
+    }
+    if (htr::isClosedLoop(path, 1.0)) route_length += std::hypot(path.back().x - end.x, path.back().y - end.y);
+    metrics["distance_travelled_m"] = travelled;
+    metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));
     if (!baseline.truth.empty()) {
       const htr::Pose2D& b = baseline.truth.back();
       metrics["odometry_only_final_pos_err_m"] = endError(b);
@@ -162,6 +178,12 @@ int main(int argc, char** argv) {
       std::printf("; odometry only: %.3f m", metrics["odometry_only_final_pos_err_m"].get<double>());
     }
     std::printf("\n");
+    if (!finished) {
+      std::printf("the run did NOT finish: controller state '%s', %.2f of %.2f m travelled\n",
+                  run.last_state.empty() ? "(none recorded)" : run.last_state.c_str(), travelled,
+                  metrics["route_distance_m"].get<double>());
+      return 3;
+    }
   } catch (const std::exception& e) {
     std::cerr << "evaluate_demo_run: " << e.what() << "\n";
     return 1;
