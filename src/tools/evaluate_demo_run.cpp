@@ -13,11 +13,19 @@
 // must end at (a loop: its first keyframe, where the robot started; an open route: its last);
 // max/mean/final_path: distance to the polyline through the taught keyframes. And
 // DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
+// "localization": how the repeat_node's published pose (repeat_node/pose) compares with the ground
+// truth at the pose's stamp (interpolated), and whether its covariance is honest
+// (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
+// "heading_sigma_rms_deg", "nees_mean", "nees_median", "nees_fraction_above_chi2_95",
+// "unscored_poses"}; null when the bag has no pose. The route's frame (map) is taken as the world's,
+// as for the path errors: the teach phase runs on drift-free odometry.
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <std_msgs/String.h>
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -30,34 +38,85 @@
 #include <limits>
 
 #include "../../bench/eval_cli.h"
+#include "homography_teach_repeat/odometry_buffer.h"
 #include "homography_teach_repeat/path_deviation.h"
 #include "homography_teach_repeat/planar_world.h"
+#include "homography_teach_repeat/pose_consistency.h"
 #include "homography_teach_repeat/route.h"
 
 namespace htr = homography_teach_repeat;
 
 namespace {
 
+struct StampedEstimate {
+  double stamp;
+  htr::Pose2D pose;
+  Eigen::Matrix3d covariance;  // of (x, y, yaw)
+};
+
 struct Run {
   std::vector<htr::Pose2D> truth;
+  std::vector<double> truth_stamps;
+  std::vector<StampedEstimate> estimates;  // repeat_node/pose
   std::string last_state;
 };
+
+// Planar yaw of a quaternion about z (the simulator's and the nodes' poses are planar).
+double planarYaw(const geometry_msgs::Quaternion& q) { return 2.0 * std::atan2(q.z, q.w); }
 
 Run readRun(const std::string& path) {
   Run run;
   rosbag::Bag bag(path, rosbag::bagmode::Read);
   rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
-                                             "/controller_node/state"}));
+                                             "/controller_node/state", "repeat_node/pose", "/repeat_node/pose"}));
   for (const rosbag::MessageInstance& m : view) {
     if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
-      const auto& q = odom->pose.pose.orientation;
       run.truth.emplace_back(odom->pose.pose.position.x, odom->pose.pose.position.y,
-                             2.0 * std::atan2(q.z, q.w));
+                             planarYaw(odom->pose.pose.orientation));
+      run.truth_stamps.push_back(odom->header.stamp.toSec());
     } else if (const auto state = m.instantiate<std_msgs::String>()) {
       run.last_state = state->data;
+    } else if (const auto pose = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
+      // Row-major 6x6 over (x, y, z, roll, pitch, yaw): rows and columns 0, 1 and 5.
+      const auto& c = pose->pose.covariance;
+      const std::size_t index[3] = {0, 1, 5};
+      Eigen::Matrix3d covariance;
+      for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) covariance(r, k) = c[6 * index[r] + index[k]];
+      }
+      run.estimates.push_back({pose->header.stamp.toSec(),
+                               htr::Pose2D(pose->pose.pose.position.x, pose->pose.pose.position.y,
+                                           planarYaw(pose->pose.pose.orientation)),
+                               covariance});
     }
   }
   return run;
+}
+
+// The published poses against the ground truth at their stamps (the pose of an image is older than
+// the newest ground truth: comparing with the latest sample would charge the latency to the pose).
+nlohmann::json scoreLocalization(const Run& run) {
+  if (run.estimates.empty()) return nullptr;
+  htr::OdometryBuffer truth(std::numeric_limits<double>::max(), 0.5);
+  for (std::size_t i = 0; i < run.truth.size(); ++i) truth.add(run.truth_stamps[i], run.truth[i]);
+  htr::PoseConsistency consistency;
+  std::size_t unscored = 0;
+  for (const StampedEstimate& e : run.estimates) {
+    const auto at = truth.poseAt(e.stamp);
+    if (!at || !consistency.add(e.pose, e.covariance, *at).isOk()) ++unscored;
+  }
+  const auto summary = consistency.summary();
+  if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
+  const double deg = 180.0 / M_PI;
+  return {{"poses", summary->samples},
+          {"position_err_rms_m", summary->position_error_rms},
+          {"heading_err_rms_deg", summary->heading_error_rms * deg},
+          {"position_sigma_rms_m", summary->position_sigma_rms},
+          {"heading_sigma_rms_deg", summary->heading_sigma_rms * deg},
+          {"nees_mean", summary->nees_mean},
+          {"nees_median", summary->nees_median},
+          {"nees_fraction_above_chi2_95", summary->fraction_above_chi2_95},
+          {"unscored_poses", unscored}};
 }
 
 }  // namespace
@@ -116,6 +175,7 @@ int main(int argc, char** argv) {
     if (htr::isClosedLoop(path, 1.0)) route_length += std::hypot(path.back().x - end.x, path.back().y - end.y);
     metrics["distance_travelled_m"] = travelled;
     metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));
+    metrics["localization"] = scoreLocalization(run);
     if (!baseline.truth.empty()) {
       const htr::Pose2D& b = baseline.truth.back();
       metrics["odometry_only_final_pos_err_m"] = endError(b);
@@ -141,7 +201,8 @@ int main(int argc, char** argv) {
       }
     }
     const double scale = 100.0, margin = 0.5;
-    cv::Mat canvas((y1 - y0 + 2 * margin) * scale, (x1 - x0 + 2 * margin) * scale, CV_8UC3, cv::Scalar(255, 255, 255));
+    cv::Mat canvas(static_cast<int>((y1 - y0 + 2 * margin) * scale), static_cast<int>((x1 - x0 + 2 * margin) * scale),
+                   CV_8UC3, cv::Scalar(255, 255, 255));
     auto px = [&](double x, double y) {
       return cv::Point(static_cast<int>((x - x0 + margin) * scale), static_cast<int>((y1 + margin - y) * scale));
     };
@@ -178,6 +239,15 @@ int main(int argc, char** argv) {
       std::printf("; odometry only: %.3f m", metrics["odometry_only_final_pos_err_m"].get<double>());
     }
     std::printf("\n");
+    const auto& localization = metrics["localization"];
+    if (localization.contains("nees_mean")) {
+      std::printf("published pose vs ground truth: %.3f m / %.2f deg rms, claimed %.3f m / %.2f deg; NEES mean "
+                  "%.1f (3 if the covariance is honest), %.0f %% of poses beyond its 95 %% bound (5 %%)\n",
+                  localization["position_err_rms_m"].get<double>(), localization["heading_err_rms_deg"].get<double>(),
+                  localization["position_sigma_rms_m"].get<double>(),
+                  localization["heading_sigma_rms_deg"].get<double>(), localization["nees_mean"].get<double>(),
+                  100.0 * localization["nees_fraction_above_chi2_95"].get<double>());
+    }
     if (!finished) {
       std::printf("the run did NOT finish: controller state '%s', %.2f of %.2f m travelled\n",
                   run.last_state.empty() ? "(none recorded)" : run.last_state.c_str(), travelled,

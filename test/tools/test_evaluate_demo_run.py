@@ -1,6 +1,8 @@
 #!/usr/bin/python3
 """evaluate_demo_run judges a run by the controller's last state as well as by the errors: a robot
-that never left the start is 0 m from a loop's end pose, and must not pass as a success.
+that never left the start is 0 m from a loop's end pose, and must not pass as a success. And it
+scores the published pose (repeat_node/pose) against the ground truth at the pose's stamp,
+interpolated, with the NEES of the published covariance.
 
   test_evaluate_demo_run.py EVALUATE_DEMO_RUN WORLD ROUTE_DIR WORK_DIR
 
@@ -16,19 +18,39 @@ import sys
 import rosbag
 import rospy
 import yaml
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from std_msgs.msg import String
 
 
-def write_bag(path, poses, state):
+# Published poses: 0.05 m off in x with a 0.05 m sigma (NEES 1 each), stamped half-way between
+# two ground-truth samples 0.1 s apart, written after both (as an image's pose arrives late).
+POSE_OFFSET_X = 0.05
+POSE_COVARIANCE = [0.0025, 0.0025, 1e-4]
+
+
+def write_bag(path, poses, state, with_estimates=False):
     with rosbag.Bag(path, 'w') as bag:
         t = rospy.Time(1.0)
-        for x, y, yaw in poses:
+        for i, (x, y, yaw) in enumerate(poses):
             m = Odometry()
             m.header.stamp = t
             m.pose.pose.position.x, m.pose.pose.position.y = x, y
             m.pose.pose.orientation.z, m.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
             bag.write('ground_truth', m, t)
+            if with_estimates and i > 0:
+                px, py, pyaw = poses[i - 1]
+                mid_yaw = pyaw + math.atan2(math.sin(yaw - pyaw), math.cos(yaw - pyaw)) / 2
+                e = PoseWithCovarianceStamped()
+                e.header.stamp = t - rospy.Duration(0.05)
+                e.header.frame_id = 'map'
+                e.pose.pose.position.x, e.pose.pose.position.y = (px + x) / 2 + POSE_OFFSET_X, (py + y) / 2
+                e.pose.pose.orientation.z, e.pose.pose.orientation.w = math.sin(mid_yaw / 2), math.cos(mid_yaw / 2)
+                for row, variance in zip((0, 1, 5), POSE_COVARIANCE):
+                    e.pose.covariance[6 * row + row] = variance
+                for row in (2, 3, 4):
+                    e.pose.covariance[6 * row + row] = 1e6  # unobserved: z, roll, pitch
+                bag.write('repeat_node/pose', e, t)
             t += rospy.Duration(0.1)
         bag.write('controller_node/state', String(data=state), t)
 
@@ -52,13 +74,20 @@ def main():
     lap.append(path[0])
     failures = []
 
-    write_bag(os.path.join(work, 'finished.bag'), lap, 'finished: end of the route')
+    write_bag(os.path.join(work, 'finished.bag'), lap, 'finished: end of the route', with_estimates=True)
     code, metrics, _ = evaluate(program, world, route, os.path.join(work, 'finished.bag'), os.path.join(work, 'finished'))
     if code != 0 or metrics['finished'] is not True:
         failures.append('a finished lap: exit %d, finished %s' % (code, metrics['finished']))
     if abs(metrics['distance_travelled_m'] - metrics['route_distance_m']) > 0.05:
         failures.append('a lap travelled %.3f m, the route is %.3f m' % (metrics['distance_travelled_m'],
                                                                           metrics['route_distance_m']))
+
+    localization = metrics['localization']
+    if (localization is None or localization['poses'] != len(lap) - 1 or localization['unscored_poses'] != 0
+            or abs(localization['nees_mean'] - 1.0) > 1e-6 or abs(localization['position_err_rms_m'] - POSE_OFFSET_X) > 1e-6
+            or localization['heading_err_rms_deg'] > 1e-6):
+        failures.append('published poses 0.05 m off at a 0.05 m sigma, between two ground-truth samples: %s'
+                        % localization)
 
     write_bag(os.path.join(work, 'waited.bag'), [path[0]] * 50, 'waiting: no localization yet')
     code, metrics, stdout = evaluate(program, world, route, os.path.join(work, 'waited.bag'), os.path.join(work, 'waited'))
@@ -67,6 +96,8 @@ def main():
                         (code, metrics['finished'], metrics['distance_travelled_m']))
     if metrics['final_pos_err_m'] > 1e-9 or 'did NOT finish' not in stdout:
         failures.append('the waiting robot: final error %s, summary %r' % (metrics['final_pos_err_m'], stdout[-200:]))
+    if metrics['localization'] is not None:
+        failures.append('a bag without repeat_node/pose: localization %s, not null' % metrics['localization'])
 
     for failure in failures:
         print('FAIL: ' + failure)
