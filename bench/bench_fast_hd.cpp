@@ -7,12 +7,12 @@
 
 #include <random>
 
-#include "homography_teach_repeat/fast_hd.h"
-#include "homography_teach_repeat/fast_hd_covariance.h"
-#include "homography_teach_repeat/homography.h"
-#include "homography_teach_repeat/homography_decomposition.h"
-#include "homography_teach_repeat/planar_pose_estimator.h"
-#include "homography_teach_repeat/synthetic_plane_scene.h"
+#include "homography_teach_repeat/fast_hd/fast_hd.h"
+#include "homography_teach_repeat/fast_hd/fast_hd_covariance.h"
+#include "homography_teach_repeat/homography/homography.h"
+#include "homography_teach_repeat/homography/homography_decomposition.h"
+#include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
+#include "homography_teach_repeat/eval/synthetic_plane_scene.h"
 
 namespace htr = homography_teach_repeat;
 

@@ -5,8 +5,8 @@
 
 #include <random>
 
-#include "homography_teach_repeat/homography.h"
-#include "homography_teach_repeat/robust_homography.h"
+#include "homography_teach_repeat/homography/homography.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
 
 namespace htr = homography_teach_repeat;
 

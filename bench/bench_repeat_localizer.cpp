@@ -12,11 +12,11 @@
 #include <map>
 #include <memory>
 
-#include "../test/core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include <opencv2/features2d.hpp>
 
-#include "homography_teach_repeat/feature_matcher.h"
-#include "homography_teach_repeat/repeat_localizer.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 
 namespace htr = homography_teach_repeat;
 

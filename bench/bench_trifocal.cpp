@@ -7,10 +7,10 @@
 #include <algorithm>
 #include <random>
 
-#include "homography_teach_repeat/synthetic_bearing_scene.h"
-#include "homography_teach_repeat/trifocal_motion.h"
-#include "homography_teach_repeat/trifocal_ransac.h"
-#include "homography_teach_repeat/trifocal_tensor_1d.h"
+#include "homography_teach_repeat/eval/synthetic_bearing_scene.h"
+#include "homography_teach_repeat/trifocal/trifocal_motion.h"
+#include "homography_teach_repeat/trifocal/trifocal_ransac.h"
+#include "homography_teach_repeat/trifocal/trifocal_tensor_1d.h"
 
 namespace htr = homography_teach_repeat;
 

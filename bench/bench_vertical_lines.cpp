@@ -11,11 +11,11 @@
 #include <cmath>
 #include <iostream>
 
-#include "homography_teach_repeat/heading_1d.h"
-#include "homography_teach_repeat/heading_correction.h"
-#include "homography_teach_repeat/homography_1d.h"
-#include "homography_teach_repeat/vertical_line_matcher.h"
-#include "homography_teach_repeat/vertical_lines.h"
+#include "homography_teach_repeat/mu/heading_1d.h"
+#include "homography_teach_repeat/mu/heading_correction.h"
+#include "homography_teach_repeat/mu/homography_1d.h"
+#include "homography_teach_repeat/features/vertical_line_matcher.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
 
 namespace htr = homography_teach_repeat;
 

@@ -2,7 +2,8 @@
 # - installs the Debian packages the package needs (idempotent: apt runs only if one is missing);
 # - works around the pyenv pitfall (../shared/ros-on-debian.md): ROS's CMake helpers need
 #   /usr/bin/python3, not a pyenv shim that comes first on PATH;
-# - configures and builds the catkin package with plain CMake (the repository root is the
+# - configures and builds the catkin package with plain CMake, tests, benchmarks and evaluation
+#   programs on (the repository root is the
 #   package; the devel space is BUILD_DIR/devel).
 
 HTR_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -61,7 +62,7 @@ htr_configure() {
   shift
   cmake -S "$HTR_ROOT" -B "$build_dir" \
     -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
-    -DCATKIN_ENABLE_TESTING=ON "$@"
+    -DCATKIN_ENABLE_TESTING=ON -DHTR_BUILD_EVALUATION=ON "$@"
 }
 
 # htr_build BUILD_DIR [targets...]

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
 
@@ -17,7 +17,7 @@ namespace {
 RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
   RouteFollowerOptions o;
   PotentialFieldParameters& p = o.controller;
-  try {
+  readParameters(nh, [&] {
     p.viscous_friction = readParameter(nh, "viscous_friction", p.viscous_friction);
     p.inertia_ratio = readParameter(nh, "inertia_ratio", p.inertia_ratio);
     p.lever = readParameter(nh, "lever", p.lever);
@@ -51,9 +51,7 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.align_final_heading = readParameter(nh, "align_final_heading", o.align_final_heading);
     o.final_heading_tolerance = readParameter(nh, "final_heading_tolerance", o.final_heading_tolerance);
     o.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
-  }
+  });
   return o;
 }
 

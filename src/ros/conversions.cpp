@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/ros/conversions.h"
 
+#include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
+
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 
@@ -133,6 +135,79 @@ Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const 
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, std::string("camera mount: ") + e.what());
   }
+}
+
+namespace {
+// Rows and columns of x, y and yaw in the row-major 6x6 (x, y, z, roll, pitch, yaw) covariance.
+constexpr std::size_t kPlanarIndex[3] = {0, 1, 5};
+}  // namespace
+
+geometry_msgs::PoseWithCovariance toPoseWithCovariance(const Pose2D& pose, const Eigen::Matrix3d* covariance,
+                                                       double unobserved_variance) {
+  geometry_msgs::PoseWithCovariance message;
+  message.pose.position.x = pose.x;
+  message.pose.position.y = pose.y;
+  message.pose.orientation = yawQuaternion(pose.yaw);
+  auto& c = message.covariance;
+  c.fill(0.0);
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) {
+      c[kPlanarIndex[r] * 6 + kPlanarIndex[k]] =
+          covariance != nullptr ? (*covariance)(r, k) : (r == k ? unobserved_variance : 0.0);
+    }
+  }
+  c[2 * 6 + 2] = c[3 * 6 + 3] = c[4 * 6 + 4] = unobserved_variance;
+  return message;
+}
+
+Eigen::Matrix3d planarCovariance(const geometry_msgs::PoseWithCovariance& pose) {
+  Eigen::Matrix3d covariance;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) covariance(r, k) = pose.covariance[6 * kPlanarIndex[r] + kPlanarIndex[k]];
+  }
+  return covariance;
+}
+
+visualization_msgs::MarkerArray routeMarkers(const Route& route, int current_keyframe, const std::string& frame_id,
+                                             const ros::Time& stamp) {
+  visualization_msgs::MarkerArray markers;
+  for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
+    const bool current = static_cast<int>(k) == current_keyframe;
+    visualization_msgs::Marker arrow;
+    arrow.header.frame_id = frame_id;
+    arrow.header.stamp = stamp;
+    arrow.ns = "keyframes";
+    arrow.id = static_cast<int>(k);
+    arrow.type = visualization_msgs::Marker::ARROW;
+    arrow.pose = toPoseWithCovariance(route.keyframes[k].pose, nullptr, 0.0).pose;
+    arrow.scale.x = 0.4;
+    arrow.scale.y = arrow.scale.z = 0.06;
+    arrow.color.r = current ? 1.0f : 0.2f;
+    arrow.color.g = current ? 0.3f : 0.6f;
+    arrow.color.b = current ? 0.1f : 1.0f;
+    arrow.color.a = 1.0f;
+    markers.markers.push_back(arrow);
+    const auto segment = keyframeWallSegment(route, k);
+    if (!segment) continue;
+    visualization_msgs::Marker wall;
+    wall.header = arrow.header;
+    wall.ns = "planes";
+    wall.id = static_cast<int>(k);
+    wall.type = visualization_msgs::Marker::LINE_LIST;
+    wall.pose.orientation.w = 1.0;
+    wall.scale.x = 0.03;
+    wall.color.r = wall.color.g = 0.8f;
+    wall.color.b = 0.2f;
+    wall.color.a = current ? 1.0f : 0.3f;
+    for (const Eigen::Vector2d& end : {segment->a, segment->b}) {
+      geometry_msgs::Point point;
+      point.x = end.x();
+      point.y = end.y();
+      wall.points.push_back(point);
+    }
+    markers.markers.push_back(wall);
+  }
+  return markers;
 }
 
 }  // namespace ros_conversions

@@ -14,7 +14,7 @@ namespace {
 
 RegistrationOptions readRegistrationOptions(const ros::NodeHandle& nh) {
   RegistrationOptions options;
-  try {
+  readParameters(nh, [&] {
     options.features.type = featureTypeFromString(
         readParameter<std::string>(nh, "feature_type", toString(options.features.type)));
     options.features.max_features = readParameter(nh, "max_features", options.features.max_features);
@@ -27,9 +27,7 @@ RegistrationOptions readRegistrationOptions(const ros::NodeHandle& nh) {
         readParameter(nh, "inlier_threshold_px", options.robust.inlier_threshold_px);
     options.robust.min_inliers = readParameter(nh, "min_inliers", options.robust.min_inliers);
     options.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
-  }
+  });
   return options;
 }
 

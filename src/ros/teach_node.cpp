@@ -5,14 +5,14 @@
 #include "homography_teach_repeat/TeachStatus.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
 namespace {
 
 TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
   TeachOptions options;
-  try {
+  readParameters(nh, [&] {
     options.route_directory = readRequiredParameter<std::string>(nh, "route_directory");
     options.overwrite = readParameter(nh, "overwrite", options.overwrite);
     options.features.type = featureTypeFromString(
@@ -32,9 +32,7 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
         readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
     options.lines.min_length_px = readParameter(nh, "line_min_length_px", options.lines.min_length_px);
     options.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
-  }
+  });
   // A directory the route cannot be written to stops the node now, not at the first keyframe.
   const Status writable = checkRouteDirectoryWritable(options.route_directory, options.overwrite);
   if (!writable.isOk()) {

@@ -17,7 +17,7 @@ constexpr double kOdometryLag = 0.1;
 
 TrifocalLocalizerOptions readOptions(const ros::NodeHandle& nh) {
   TrifocalLocalizerOptions o;
-  try {
+  readParameters(nh, [&] {
     o.features.type = featureTypeFromString(readParameter<std::string>(nh, "feature_type", "sift"));
     o.features.max_features = readParameter(nh, "max_features", 1500);
     o.matching.ratio = readParameter(nh, "match_ratio", o.matching.ratio);
@@ -34,9 +34,7 @@ TrifocalLocalizerOptions readOptions(const ros::NodeHandle& nh) {
     o.max_prior_heading_disagreement =
         readParameter(nh, "max_prior_heading_disagreement", o.max_prior_heading_disagreement);
     o.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error("invalid parameter in " + nh.getNamespace() + ": " + e.what());
-  }
+  });
   return o;
 }
 

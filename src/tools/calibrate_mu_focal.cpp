@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "../../bench/eval_cli.h"
-#include "homography_teach_repeat/heading_1d.h"
-#include "homography_teach_repeat/heading_correction.h"
-#include "homography_teach_repeat/vertical_lines.h"
+#include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/mu/heading_1d.h"
+#include "homography_teach_repeat/mu/heading_correction.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
 
 using namespace homography_teach_repeat;
 
@@ -34,7 +34,7 @@ namespace {
 constexpr double kDegToRad = M_PI / 180.0;
 
 std::vector<std::pair<std::string, double>> readPairsFile(const std::string& path,
-                                                          const eval::Arguments& args) {
+                                                          const cli::Arguments& args) {
   std::ifstream in(path);
   if (!in) args.fail("cannot open '" + path + "'");
   std::vector<std::pair<std::string, double>> rows;
@@ -57,7 +57,7 @@ std::vector<std::pair<std::string, double>> readPairsFile(const std::string& pat
 }  // namespace
 
 int main(int argc, char** argv) {
-  eval::Arguments args("calibrate_mu_focal",
+  cli::Arguments args("calibrate_mu_focal",
                        {{"list", ""}, {"pairs", ""}, {"cx", ""}, {"json", ""}},
                        "(--list FILE [--cx X] | --pairs FILE) [--json F]");
   args.parse(argc, argv);

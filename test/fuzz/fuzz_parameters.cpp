@@ -5,13 +5,13 @@
 #include <opencv2/core.hpp>
 
 #include "fuzz_support.h"
-#include "homography_teach_repeat/feature_matcher.h"
-#include "homography_teach_repeat/homography_1d.h"
-#include "homography_teach_repeat/odometry_gate.h"
-#include "homography_teach_repeat/potential_field_controller.h"
-#include "homography_teach_repeat/synthetic_bearing_scene.h"
-#include "homography_teach_repeat/trifocal_ransac.h"
-#include "homography_teach_repeat/vertical_lines.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/mu/homography_1d.h"
+#include "homography_teach_repeat/teach_repeat/odometry_gate.h"
+#include "homography_teach_repeat/control/potential_field_controller.h"
+#include "homography_teach_repeat/eval/synthetic_bearing_scene.h"
+#include "homography_teach_repeat/trifocal/trifocal_ransac.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
 
 namespace htr = homography_teach_repeat;
 using htr_fuzz::anyDouble;

@@ -5,8 +5,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fuzz_support.h"
-#include "homography_teach_repeat/route.h"
-#include "homography_teach_repeat/vertical_lines.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
 
 namespace htr = homography_teach_repeat;
 

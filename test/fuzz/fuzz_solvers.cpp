@@ -5,11 +5,12 @@
 #include <Eigen/Core>
 
 #include "fuzz_support.h"
-#include "homography_teach_repeat/fast_hd.h"
-#include "homography_teach_repeat/homography_1d.h"
-#include "homography_teach_repeat/trifocal_motion.h"
-#include "homography_teach_repeat/trifocal_ransac.h"
-#include "homography_teach_repeat/trifocal_tensor_1d.h"
+#include "homography_teach_repeat/fast_hd/fast_hd.h"
+#include "homography_teach_repeat/homography/homography.h"
+#include "homography_teach_repeat/mu/homography_1d.h"
+#include "homography_teach_repeat/trifocal/trifocal_motion.h"
+#include "homography_teach_repeat/trifocal/trifocal_ransac.h"
+#include "homography_teach_repeat/trifocal/trifocal_tensor_1d.h"
 
 namespace htr = homography_teach_repeat;
 

@@ -4,7 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include "fuzz_support.h"
-#include "homography_teach_repeat/vertical_lines.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
 
 namespace htr = homography_teach_repeat;
 

@@ -2,7 +2,7 @@
 // world that loads is also ray cast (the LaserScan path). Statuses only: no crash, hang or
 // out-of-bounds read.
 #include "fuzz_support.h"
-#include "homography_teach_repeat/planar_world.h"
+#include "homography_teach_repeat/sim/planar_world.h"
 
 namespace htr = homography_teach_repeat;
 

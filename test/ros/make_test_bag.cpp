@@ -1,6 +1,6 @@
 // Records a short synthetic repeat run to a bag: the camera (images of the synthetic wall of the
 // core tests and camera_info), wheel odometry and the ground truth, along a path 6 cm beside the
-// taught one (test/core/synthetic_route.h). The rostest repeat_node_bag plays it back through
+// taught one (test/support/synthetic_route.h). The rostest repeat_node_bag plays it back through
 // repeat_node with `rosbag play`.
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>

@@ -1,9 +1,9 @@
-// Writes the synthetic taught route of the core tests (test/core/synthetic_route.h) to the
+// Writes the synthetic taught route of the core tests (test/support/synthetic_route.h) to the
 // directory given as argument: the fixture of the repeat_node rostest.
 #include <iostream>
 #include <stdexcept>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

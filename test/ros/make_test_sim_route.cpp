@@ -10,11 +10,11 @@
 #include <iostream>
 #include <stdexcept>
 
-#include "homography_teach_repeat/differential_drive.h"
-#include "homography_teach_repeat/planar_world.h"
-#include "homography_teach_repeat/teach_session.h"
-#include "homography_teach_repeat/waypoint_driver.h"
-#include "homography_teach_repeat/world_renderer.h"
+#include "homography_teach_repeat/sim/differential_drive.h"
+#include "homography_teach_repeat/sim/planar_world.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
+#include "homography_teach_repeat/sim/waypoint_driver.h"
+#include "homography_teach_repeat/sim/world_renderer.h"
 
 namespace htr = homography_teach_repeat;
 

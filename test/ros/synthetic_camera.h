@@ -1,9 +1,9 @@
-// camera_info of the synthetic camera of the core tests (test/core/synthetic_route.h).
+// camera_info of the synthetic camera of the core tests (test/support/synthetic_route.h).
 #pragma once
 
 #include <sensor_msgs/CameraInfo.h>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include "node_test_helpers.h"
 
 namespace homography_teach_repeat {

@@ -12,8 +12,8 @@
 
 #include <cmath>
 
-#include "homography_teach_repeat/path_deviation.h"
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/eval/path_deviation.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "homography_teach_repeat/RepeatRouteAction.h"
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

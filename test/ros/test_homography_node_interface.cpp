@@ -5,7 +5,7 @@
 #include <ros/ros.h>
 
 #include "homography_teach_repeat/HomographyStamped.h"
-#include "homography_teach_repeat/homography.h"
+#include "homography_teach_repeat/homography/homography.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

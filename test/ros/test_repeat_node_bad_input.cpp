@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/ros/controller_node.h"
 #include "homography_teach_repeat/ros/repeat_node.h"

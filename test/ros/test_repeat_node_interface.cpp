@@ -11,7 +11,7 @@
 #include <cmath>
 #include <vector>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "node_test_helpers.h"
 #include "synthetic_camera.h"

@@ -10,7 +10,7 @@
 
 #include <cmath>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include "homography_teach_repeat/TeachStatus.h"
 #include "node_test_helpers.h"
 

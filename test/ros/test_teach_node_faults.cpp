@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "../core/synthetic_route.h"
+#include "support/synthetic_route.h"
 #include "synthetic_camera.h"
 #include "homography_teach_repeat/TeachStatus.h"
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

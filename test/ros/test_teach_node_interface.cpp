@@ -13,8 +13,8 @@
 #include <cmath>
 
 #include "homography_teach_repeat/TeachStatus.h"
-#include "homography_teach_repeat/fast_hd.h"
-#include "homography_teach_repeat/route.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

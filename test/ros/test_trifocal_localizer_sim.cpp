@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "homography_teach_repeat/planar_pose.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
 #include "node_test_helpers.h"
 
 using namespace homography_teach_repeat;

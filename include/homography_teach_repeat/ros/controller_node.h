@@ -37,7 +37,7 @@
 #include "homography_teach_repeat/ControllerConfig.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/RepeatRouteAction.h"
-#include "homography_teach_repeat/route_follower.h"
+#include "homography_teach_repeat/control/route_follower.h"
 
 namespace homography_teach_repeat {
 

@@ -4,20 +4,23 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/PoseWithCovariance.h>
 #include <geometry_msgs/Transform.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <opencv2/core.hpp>
 
 #include <string>
 
 #include "homography_teach_repeat/HomographyStamped.h"
-#include "homography_teach_repeat/pinhole_camera.h"
-#include "homography_teach_repeat/planar_pose.h"
-#include "homography_teach_repeat/robust_homography.h"
-#include "homography_teach_repeat/status.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
 namespace ros_conversions {
@@ -51,6 +54,20 @@ Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const 
 
 HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,
                         const std_msgs::Header& header, const std::string& reference);
+
+// A planar pose with its (x, y, yaw) covariance as a PoseWithCovariance: the 6x6 covariance is
+// row-major over (x, y, z, roll, pitch, yaw), rows and columns 0, 1 and 5 hold `covariance`; z,
+// roll and pitch are not estimated and get `unobserved_variance`, and so does every entry of a pose
+// whose covariance is unknown (nullptr).
+geometry_msgs::PoseWithCovariance toPoseWithCovariance(const Pose2D& pose, const Eigen::Matrix3d* covariance,
+                                                       double unobserved_variance);
+// The route for rviz in `frame_id`: an arrow per keyframe (namespace "keyframes", the current one
+// in orange) and its scene plane as a 2 m wall segment ("planes"; teach_repeat/repeat_visualization.h).
+visualization_msgs::MarkerArray routeMarkers(const Route& route, int current_keyframe, const std::string& frame_id,
+                                             const ros::Time& stamp);
+
+// The (x, y, yaw) block of a PoseWithCovariance's covariance (the inverse of the above).
+Eigen::Matrix3d planarCovariance(const geometry_msgs::PoseWithCovariance& pose);
 
 }  // namespace ros_conversions
 }  // namespace homography_teach_repeat

@@ -17,8 +17,8 @@
 
 #include <string>
 
-#include "homography_teach_repeat/image_registration.h"
-#include "homography_teach_repeat/status.h"
+#include "homography_teach_repeat/homography/image_registration.h"
+#include "homography_teach_repeat/common/status.h"
 
 namespace homography_teach_repeat {
 

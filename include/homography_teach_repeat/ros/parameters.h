@@ -10,6 +10,9 @@
 
 namespace homography_teach_repeat {
 
+// The start-up error for a bad parameter: "invalid parameter in <namespace>: <what>".
+std::runtime_error invalidParameter(const ros::NodeHandle& nh, const std::string& what);
+
 template <typename T>
 T readParameter(const ros::NodeHandle& nh, const std::string& name, const T& default_value) {
   if (!nh.hasParam(name)) return default_value;
@@ -39,6 +42,29 @@ inline double readParameter<double>(const ros::NodeHandle& nh, const std::string
     if (used > 0 && used == text.size()) return value;
   }
   throw std::runtime_error("parameter '" + nh.resolveName(name) + "' must be a number");
+}
+
+// Runs `read`, which reads parameters and validates them (an options struct's validate(), or a
+// check of its own): an std::invalid_argument it throws becomes the std::runtime_error that stops
+// the node at start-up, naming the node's namespace and the bad field. The one place where a bad
+// parameter becomes a start-up error.
+template <typename Read>
+void readParameters(const ros::NodeHandle& nh, Read&& read) {
+  try {
+    read();
+  } catch (const std::invalid_argument& e) {
+    throw invalidParameter(nh, e.what());
+  }
+}
+
+// A parameter that must satisfy `valid`: std::invalid_argument "<name> <requirement>" otherwise
+// (inside readParameters, or std::runtime_error naming the parameter outside).
+template <typename T, typename Valid>
+T readCheckedParameter(const ros::NodeHandle& nh, const std::string& name, const T& default_value, Valid&& valid,
+                       const std::string& requirement) {
+  const T value = readParameter<T>(nh, name, default_value);
+  if (!valid(value)) throw invalidParameter(nh, "'" + nh.resolveName(name) + "' " + requirement);
+  return value;
 }
 
 template <typename T>

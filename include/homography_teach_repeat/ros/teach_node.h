@@ -27,9 +27,9 @@
 #include <optional>
 #include <string>
 
-#include "homography_teach_repeat/odometry_buffer.h"
-#include "homography_teach_repeat/status.h"
-#include "homography_teach_repeat/teach_session.h"
+#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 namespace homography_teach_repeat {
 

@@ -29,9 +29,9 @@
 #include <optional>
 #include <string>
 
-#include "homography_teach_repeat/odometry_buffer.h"
-#include "homography_teach_repeat/status.h"
-#include "homography_teach_repeat/trifocal_localizer.h"
+#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/trifocal/trifocal_localizer.h"
 
 namespace homography_teach_repeat {
 

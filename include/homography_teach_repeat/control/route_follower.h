@@ -1,0 +1,130 @@
+// Following a taught route with the potential-field controller (paper 002 §5): the goals are the
+// keyframe positions in order (optionally several laps); the robot pose comes from the repeat
+// phase's localization, and every condition that makes it untrustworthy stops the robot:
+// no fix yet, a fix older than `pose_timeout`, lost tracking, a non-finite input. At the end of
+// the route the command is zero and the follower reports finished.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <limits>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/control/potential_field_controller.h"
+#include "homography_teach_repeat/common/status.h"
+
+namespace homography_teach_repeat {
+
+enum class FollowState { kWaiting, kFollowing, kStopped, kFinished };
+std::string toString(FollowState state);
+
+struct RouteFollowerOptions {
+  PotentialFieldParameters controller;
+  double pose_timeout = 0.5;  // [s] a fix older than this stops the robot
+  int start_index = 0;        // first goal keyframe
+  int end_index = -1;         // last goal keyframe (-1: the last one)
+  int laps = 1;               // closed routes: goals start_index..end_index repeated
+  // A goal is passed within goal_tolerance (ε). Paper 002's second test, the heading within
+  // goal_heading_tolerance (δ) of the keyframe's, decides whether the images can be matched; the
+  // attraction has no orientation term, so requiring it for the goal would make a robot that
+  // arrives at a corner from the previous side circle there. Off by default.
+  bool require_goal_heading = false;
+  // Closed routes (at least 3 keyframes, the last within closed_route_gap [m] of the first,
+  // end_index the last): every lap runs round all keyframes from start_index to the keyframe
+  // before it, where the robot started, so each lap (and the run) ends where it began and the
+  // corner between the route's last and first keyframes is followed like any other. Not for
+  // start_index 0 (the route's own last keyframe ends it).
+  bool return_to_start = true;
+  double closed_route_gap = 1.0;
+  // Corners. Where the teach run turned in place (the next keyframe within corner_radius [m] of
+  // the goal), the goal is reached within corner_tolerance [m] instead of ε, so the robot turns
+  // where the route turns instead of cutting the corner at ε and swinging wide (found in the
+  // simulator: at 0.4 m it overshot by 0.3 m into views never taught, and vision went wrong there).
+  // A goal more than turn_in_place_angle [rad] off the robot's heading is turned to in place
+  // (w = final_turn_gain · bearing) instead of by the force direction of eq. (3) (0: never).
+  double corner_radius = 0.05;
+  double corner_tolerance = 0.15;
+  double turn_in_place_angle = 0.5;
+  // The end of the run. Paper 002's robot stops once within ε of the last keyframe; here the last
+  // goal is approached within final_approach_distance [m] with a go-to-point law (turn in place
+  // while the goal's bearing exceeds final_turn_angle [rad]; otherwise v = final_approach_gain ·
+  // distance, w = final_turn_gain · bearing) until it is within final_goal_tolerance [m], then
+  // (align_final_heading) the robot turns in place to the keyframe's heading within
+  // final_heading_tolerance [rad]: the pose the route ends with, not just a point near it.
+  double final_approach_distance = 1.0;
+  double final_goal_tolerance = 0.05;
+  double final_turn_angle = 0.5;
+  double final_approach_gain = 0.5;  // [1/s]
+  double final_turn_gain = 1.5;      // [1/s]
+  bool align_final_heading = true;
+  double final_heading_tolerance = 0.02;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct FollowOutput {
+  VelocityCommand command;  // zero unless kFollowing
+  FollowState state = FollowState::kWaiting;
+  std::string reason;       // why the robot stopped or waits
+  int goal_index = -1;      // keyframe index of the current goal
+  int lap = 0;
+  double distance_to_goal = 0.0;
+  double progress = 0.0;    // goals reached / goals in the run, [0, 1]
+};
+
+class RouteFollower {
+ public:
+  // `goals`: keyframe poses of base_link in the route frame. Throws std::invalid_argument on bad
+  // options or an empty route.
+  RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options);
+
+  // A localization fix: the robot pose in the route frame at `stamp` [s]; `heading_offset` is
+  // the visual heading correction the force direction gets (0 when the pose already includes it).
+  // kInvalidInput for non-finite values (the robot then stops at the next update).
+  Status setFix(const Pose2D& pose, double stamp, double heading_offset = 0.0);
+  // Localization reported failure (lost tracking) for the frame at `stamp` [s]: stop until the next
+  // good fix. Ignored when a fix at least as new has arrived already (repeat_node's mu mode still
+  // publishes a pose for a frame without a heading fix, and the two topics may arrive in any order).
+  void setLost(const std::string& reason, double stamp = std::numeric_limits<double>::infinity());
+
+  // One control step at time `now` [s] with obstacle points in the robot frame.
+  FollowOutput update(double now, double dt, const std::vector<Eigen::Vector2d>& obstacles = {});
+
+  const PotentialFieldController& controller() const { return controller_; }
+  void setControllerParameters(const PotentialFieldParameters& parameters);
+  // Run-time tuning (dynamic_reconfigure): the controller parameters, pose_timeout,
+  // require_goal_heading and the final approach of `options`; the goal sequence (start/end index,
+  // laps, return_to_start) stays. Throws
+  // std::invalid_argument naming the bad field and then changes nothing.
+  void retune(const RouteFollowerOptions& options);
+  const RouteFollowerOptions& options() const { return options_; }
+
+ private:
+  FollowOutput stop(FollowState state, const std::string& reason);
+  FollowOutput following(const VelocityCommand& command, double distance) const;
+  // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
+  std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
+  int lapOf(std::size_t position) const;
+  double toleranceOf(std::size_t position) const;
+
+  std::vector<Pose2D> goals_;
+  RouteFollowerOptions options_;
+  PotentialFieldController controller_;
+  std::vector<int> sequence_;  // goal keyframe indices for the whole run (laps unrolled)
+  std::size_t goals_per_lap_ = 1;
+  std::size_t next_ = 0;       // position in sequence_
+  bool at_final_position_ = false;  // the last goal's position is reached: aligning the heading
+  bool has_fix_ = false;
+  bool lost_ = false;
+  bool invalid_ = false;
+  std::string lost_reason_;
+  Pose2D pose_;
+  double stamp_ = 0.0;
+  double heading_offset_ = 0.0;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,186 @@
+// The Strecha fountain-P11 sequence (../shared/realdata/strecha_fountain/fountain-P11: 11 photos
+// of a wall with ground-truth cameras, see its README) as the evaluation programs use it: images
+// downscaled to robot resolution, and every camera's gravity alignment (a rotation to a level
+// virtual camera whose y axis is the sequence's mean "down"; the role of a robot's camera mount
+// or IMU). Only the tilt of each camera comes from the ground truth here; evaluations take
+// headings and positions from it only to score.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+
+namespace homography_teach_repeat {
+namespace eval {
+
+struct GroundTruthCamera {
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // camera-to-world
+  Eigen::Vector3d C = Eigen::Vector3d::Zero();      // centre, world
+  int width = 0, height = 0;
+};
+
+inline std::string fountainImageName(int index) {
+  std::ostringstream s;
+  s << std::setw(4) << std::setfill('0') << index << ".jpg";
+  return s.str();
+}
+
+inline GroundTruthCamera readGroundTruthCamera(const std::string& path, const cli::Arguments& args) {
+  std::ifstream in(path);
+  if (!in) args.fail("cannot open ground-truth camera '" + path + "'");
+  GroundTruthCamera cam;
+  double distortion[3];
+  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.K(r, c);
+  for (double& d : distortion) in >> d;
+  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.R(r, c);
+  in >> cam.C(0) >> cam.C(1) >> cam.C(2) >> cam.width >> cam.height;
+  if (!in || !cam.K.allFinite() || !cam.R.allFinite() || cam.width <= 0) {
+    args.fail("ground-truth camera '" + path + "' is truncated or malformed");
+  }
+  return cam;
+}
+
+struct FountainView {
+  GroundTruthCamera gt;
+  Eigen::Matrix3d level;          // columns: level axes in world (y = mean down)
+  Eigen::Matrix3d rectification;  // pixel map of the scaled image to the level camera: K Q K⁻¹
+  double tilt_deg = 0.0;          // angle of Q
+  cv::Mat image;                  // grey, scaled
+};
+
+class FountainSequence {
+ public:
+  FountainSequence(const std::string& dir, double scale, const cli::Arguments& args) {
+    views_.resize(11);
+    for (int i = 0; i < 11; ++i) {
+      views_[i].gt = readGroundTruthCamera(
+          dir + "/gt_dense_cameras/" + fountainImageName(i) + ".camera", args);
+    }
+    Eigen::Vector3d down = Eigen::Vector3d::Zero();
+    for (const auto& v : views_) down += v.gt.R.col(1);
+    down.normalize();
+    K_ = views_[0].gt.K;
+    K_(0, 0) *= scale;
+    K_(1, 1) *= scale;
+    K_(0, 2) = (K_(0, 2) + 0.5) * scale - 0.5;  // pixel centres preserved
+    K_(1, 2) = (K_(1, 2) + 0.5) * scale - 0.5;
+    calibration_.width = static_cast<int>(std::lround(views_[0].gt.width * scale));
+    calibration_.height = static_cast<int>(std::lround(views_[0].gt.height * scale));
+    calibration_.fx = K_(0, 0);
+    calibration_.fy = K_(1, 1);
+    calibration_.cx = K_(0, 2);
+    calibration_.cy = K_(1, 2);
+    for (int i = 0; i < 11; ++i) {
+      FountainView& v = views_[i];
+      const std::string path = dir + "/images/" + fountainImageName(i);
+      cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+      if (image.empty()) args.fail("cannot read image '" + path + "'");
+      cv::resize(image, v.image, cv::Size(calibration_.width, calibration_.height), 0, 0,
+                 cv::INTER_AREA);
+      // Level frame: y = down, z = the optical axis made horizontal.
+      const Eigen::Vector3d z = (v.gt.R.col(2) - v.gt.R.col(2).dot(down) * down).normalized();
+      v.level.col(1) = down;
+      v.level.col(2) = z;
+      v.level.col(0) = down.cross(z);
+      const Eigen::Matrix3d Q = v.level.transpose() * v.gt.R;  // camera -> level
+      v.rectification = K_ * Q * K_.inverse();
+      v.tilt_deg = Eigen::AngleAxisd(Q).angle() * 180.0 / M_PI;
+    }
+  }
+
+  const std::vector<FountainView>& views() const { return views_; }
+  const Eigen::Matrix3d& K() const { return K_; }
+  const CameraCalibration& calibration() const { return calibration_; }
+
+  // Ground-truth pose of level camera j in the level frame of camera i (x, z; the height
+  // difference is returned separately), θ = θ12 of MATH.md §1.1.
+  PlanarPose relativePose(int i, int j, double* height_offset = nullptr) const {
+    const FountainView& a = views_[i];
+    const FountainView& b = views_[j];
+    const Eigen::Vector3d c = a.level.transpose() * (b.gt.C - a.gt.C);
+    const Eigen::Vector3d axis = a.level.transpose() * b.level.col(2);
+    if (height_offset != nullptr) *height_offset = c.y();
+    return PlanarPose(c.x(), c.z(), std::atan2(-axis.x(), axis.z()));
+  }
+
+  // The wall fitted to points triangulated with the ground-truth cameras i, j from raw (scaled,
+  // unrectified) pixel matches: nᵀX = offset (world), robust to off-wall points (3 rounds
+  // dropping points beyond 3 median absolute residuals).
+  std::pair<Eigen::Vector3d, double> fitWall(int i, int j, const PointMatches& raw) const {
+    cv::Mat p0(2, static_cast<int>(raw.size()), CV_64F), p1(2, static_cast<int>(raw.size()), CV_64F);
+    for (std::size_t k = 0; k < raw.size(); ++k) {
+      p0.at<double>(0, k) = raw[k].reference.x();
+      p0.at<double>(1, k) = raw[k].reference.y();
+      p1.at<double>(0, k) = raw[k].current.x();
+      p1.at<double>(1, k) = raw[k].current.y();
+    }
+    cv::Mat P0(3, 4, CV_64F), P1(3, 4, CV_64F), X;
+    const Eigen::Matrix<double, 3, 4> e0 = projection(views_[i].gt), e1 = projection(views_[j].gt);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) {
+        P0.at<double>(r, c) = e0(r, c);
+        P1.at<double>(r, c) = e1(r, c);
+      }
+    }
+    cv::triangulatePoints(P0, P1, p0, p1, X);
+    std::vector<Eigen::Vector3d> points;
+    for (int k = 0; k < X.cols; ++k) {
+      const double w = X.at<double>(3, k);
+      points.emplace_back(X.at<double>(0, k) / w, X.at<double>(1, k) / w, X.at<double>(2, k) / w);
+    }
+    std::vector<Eigen::Vector3d> kept = points;
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+    double offset = 0.0;
+    for (int round = 0; round < 3 && kept.size() >= 3; ++round) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const auto& p : kept) mean += p;
+      mean /= static_cast<double>(kept.size());
+      Eigen::MatrixXd centred(kept.size(), 3);
+      for (std::size_t k = 0; k < kept.size(); ++k) centred.row(k) = (kept[k] - mean).transpose();
+      const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+      normal = svd.matrixV().col(2);
+      offset = normal.dot(mean);
+      std::vector<double> residuals;
+      for (const auto& p : points) residuals.push_back(std::abs(normal.dot(p) - offset));
+      std::vector<double> sorted = residuals;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double limit = 3.0 * sorted[sorted.size() / 2];
+      kept.clear();
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        if (residuals[k] <= limit) kept.push_back(points[k]);
+      }
+    }
+    return {normal, offset};
+  }
+
+ private:
+  Eigen::Matrix<double, 3, 4> projection(const GroundTruthCamera& cam) const {
+    Eigen::Matrix<double, 3, 4> P;
+    P.leftCols<3>() = cam.R.transpose();
+    P.col(3) = -cam.R.transpose() * cam.C;
+    return K_ * P;
+  }
+
+  std::vector<FountainView> views_;
+  Eigen::Matrix3d K_;
+  CameraCalibration calibration_;
+};
+
+}  // namespace eval
+}  // namespace homography_teach_repeat

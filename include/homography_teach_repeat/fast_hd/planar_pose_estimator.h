@@ -1,0 +1,55 @@
+// The whole per-frame estimate of the repeat phase: matches -> robust homography (inliers) ->
+// normalised DLT on the inliers -> Fast-HD -> covariance (MATH.md §3.4) -> optional 3-DoF
+// refinement (planar_pose_refinement.h). Every failure is a status, never a pose.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/fast_hd/planar_pose_refinement.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/common/status.h"
+
+namespace homography_teach_repeat {
+
+struct PlanarPoseEstimatorOptions {
+  RobustHomographyOptions robust;
+  double pixel_sigma_px = 0.5;  // std of every match coordinate, for both covariances
+  bool refine = true;           // run the 3-DoF refinement after Fast-HD
+  int refinement_max_iterations = 20;
+
+  // Throws std::invalid_argument naming the field on an invalid value.
+  void validate() const;
+};
+
+struct PlanarPoseEstimate {
+  PlanarPose pose;                                       // refined if `refined`, else Fast-HD
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (Cx, Cz, θ12)
+  PlanarPose fast_hd_pose;                               // the closed-form solution
+  Eigen::Matrix3d fast_hd_covariance = Eigen::Matrix3d::Zero();
+  bool refined = false;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // inlier DLT, unit Frobenius norm
+  std::vector<int> inliers;                          // indices into the input matches
+  double rms_transfer_error_px = 0.0;
+};
+
+// Outlier-free input (all matches used): DLT -> Fast-HD -> covariance -> refinement.
+// Status: kTooFewPoints (< 4), kDegenerate (collinear points, floor/ceiling plane, κ = 0),
+// kInvalidInput, kNotFinite.
+Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(const PointMatches& matches,
+                                                           const PinholeCamera& camera,
+                                                           const ScenePlane& plane,
+                                                           const PlanarPoseEstimatorOptions& options);
+
+// With outliers: the robust selector first; the same statuses plus kNoConsensus.
+Expected<PlanarPoseEstimate> estimatePlanarPose(const PointMatches& matches,
+                                                const PinholeCamera& camera,
+                                                const ScenePlane& plane,
+                                                const PlanarPoseEstimatorOptions& options);
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,118 @@
+// Scene-plane parameters from the teach sequence (paper 000 §III with the corrections of
+// MATH.md §2):
+//  - first plane (§2.1): classic decomposition of the first homography, keep the solutions with
+//    positive depth AND planar motion; odometry breaks a remaining tie (β ≈ 0 leaves two planar
+//    solutions); metric scale from the user-given distance of the plane to the first reference;
+//  - propagation (§2.2): the plane in the next reference frame is n2 = R21 n1, d2 = d1 − n1·C;
+//  - further planes (§2.3-2.4): from the homology of two plane homographies between the same
+//    images, once the motion is known from the first plane.
+// Homographies map reference pixels to current pixels, undistorted, any scale.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/common/status.h"
+
+namespace homography_teach_repeat {
+
+struct FirstPlaneOptions {
+  // A solution is a planar motion when max(|R(2,2) − 1|, |T_y|) is below this (T = t/d).
+  double planar_motion_tolerance = 0.05;
+  // Two planar solutions whose planarity errors differ by less than this factor are a tie.
+  double tie_ratio = 10.0;
+};
+
+struct PlaneAndMotion {
+  ScenePlane plane;         // plane in the reference frame, metric
+  PlanarPose motion;        // second camera in the reference frame (Cx, Cz, θ12)
+  int candidates_after_depth_test = 0;
+  int candidates_after_planar_test = 0;
+  bool resolved_by_odometry = false;
+  bool resolved_by_third_view = false;
+};
+
+// `reference_pixels`: the inlier pixels of the reference image (for the positive-depth test).
+// A tie (β ≈ 0: two planar solutions, MATH.md §2.1) is broken by, in this order:
+//  - `odometry_motion`: the second camera in the first camera's frame from odometry; the
+//    candidate motion closest to it wins;
+//  - `H31`: the homography of the same plane from the first image to a third one. The plane
+//    normal in the first frame is the same for every homography from that image while the
+//    spurious solutions depend on the motion, so the candidate whose normal is closest to a
+//    planar solution of H31 wins.
+// Status: kInvalidInput (distance not > 0, no pixels), kDegenerate (no solution survives, or a
+// tie with neither odometry nor a third view, or a horizontal plane), the decomposition's
+// failures.
+Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                            const std::vector<Eigen::Vector2d>& reference_pixels,
+                                            double first_plane_distance,
+                                            const PlanarPose* odometry_motion = nullptr,
+                                            const Eigen::Matrix3d* H31 = nullptr,
+                                            const FirstPlaneOptions& options = {});
+
+// MATH.md §2.2: the plane expressed in the frame of a camera at `pose` (pose in the frame where
+// `plane` is given). kDegenerate when that camera is on or behind the plane (d2 <= 0).
+Expected<ScenePlane> transferPlane(const ScenePlane& plane, const PlanarPose& pose);
+
+// MATH.md §2.3-2.4: the second plane in the reference frame from the homographies of the first
+// (H_first) and the second plane (H_second) between the same two images, the first plane and the
+// motion (camera 2 in the reference frame, metric, from Fast-HD on the first plane).
+// Status: kDegenerate (no translation: C = 0; κ = 0; the result is a plane through the camera),
+// kNotFinite.
+Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
+                                         const Eigen::Matrix3d& H_second,
+                                         const PinholeCamera& camera, const ScenePlane& first_plane,
+                                         const PlanarPose& motion);
+
+// MATH.md §2.4, "simpler equivalent without the homology": the plane (in the reference frame)
+// that induces H21 between two cameras whose metric motion is known (camera 2 in the reference
+// frame, e.g. from odometry): m = (R21 − K⁻¹(H21/κ)K)ᵀ t21 / |t21|², n = m/|m|, d = 1/|m|.
+// Status: kDegenerate (translation below `min_baseline` [m]: a rotation does not see the plane;
+// κ = 0; the plane at infinity or behind the camera), kNotFinite.
+Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                                 const PlanarPose& motion, double min_baseline = 1e-6);
+
+// One step of the teach sequence: the homography from reference k to reference k+1 (of the
+// plane tracked along the route), the inlier reference pixels, and the odometry motion.
+struct ReferencePair {
+  bool has_homography = true;  // false: no homography between the two keyframes (odometry mode)
+  Eigen::Matrix3d H_next_from_current = Eigen::Matrix3d::Identity();
+  std::vector<Eigen::Vector2d> reference_pixels;
+  bool has_odometry = false;
+  PlanarPose odometry_motion;  // reference k+1 in the frame of reference k
+};
+
+struct RouteSequencePlanes {
+  std::vector<ScenePlane> planes;    // plane in each reference frame (size = pairs + 1)
+  std::vector<PlanarPose> motions;   // reference k+1 in the frame of reference k (Fast-HD)
+};
+
+// Runs §2.1 on the first pair (a tie without odometry is broken with the third view
+// H20 = H21·H10 when there is a second pair), then for each next pair Fast-HD with the propagated
+// plane (§2.2).
+Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<ReferencePair>& pairs,
+                                                      const PinholeCamera& camera,
+                                                      double first_plane_distance,
+                                                      const FirstPlaneOptions& options = {});
+
+// The planes along a route from odometry (a route that passes several walls, e.g. round a room):
+// each keyframe's plane from its pair's homography and the odometry motion
+// (planeFromHomographyAndMotion) when the pair has at least `min_baseline` [m] of translation and
+// the result is plausible (in front of the camera, not a floor/ceiling, nearer than
+// `max_distance`); otherwise the previous keyframe's plane transferred by the motion (§2.2; e.g.
+// while turning in place). The last keyframe inherits the transfer of the one before it.
+// Status: kInvalidInput (no pairs, a pair without odometry), kDegenerate (no keyframe could be
+// estimated before the first transfer was needed).
+struct OdometryPlaneOptions {
+  double min_baseline = 0.15;  // [m]
+  double max_distance = 50.0;  // [m]
+};
+Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
+                                                        const PinholeCamera& camera,
+                                                        const OdometryPlaneOptions& options = {});
+
+}  // namespace homography_teach_repeat

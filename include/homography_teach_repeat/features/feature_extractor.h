@@ -1,0 +1,61 @@
+// Point features of an image: SURF where OpenCV was built with the non-free xfeatures2d module,
+// otherwise SIFT, ORB or AKAZE (always present in OpenCV >= 4.4).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+
+namespace homography_teach_repeat {
+
+enum class FeatureType { kSurf, kSift, kOrb, kAkaze };
+
+// "surf", "sift", "orb", "akaze". Throws std::invalid_argument on an unknown name, and for
+// "surf" when this OpenCV has no SURF (the message names the available alternatives).
+FeatureType featureTypeFromString(const std::string& name);
+std::string toString(FeatureType type);
+// Whether this OpenCV build can create the detector (SURF needs xfeatures2d with non-free).
+bool isFeatureTypeAvailable(FeatureType type);
+// Comma-separated names of the available types, for messages.
+std::string availableFeatureTypes();
+// Binary descriptors are matched with the Hamming norm, float descriptors with L2.
+bool hasBinaryDescriptor(FeatureType type);
+
+struct FeatureOptions {
+  FeatureType type = FeatureType::kSift;
+  int max_features = 1000;  // strongest features kept (by detector response)
+
+  void validate() const;  // throws std::invalid_argument
+};
+
+struct ImageFeatures {
+  FeatureType type = FeatureType::kSift;
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;  // one row per keypoint
+};
+
+class FeatureExtractor {
+ public:
+  // Throws std::invalid_argument on invalid options or an unavailable type.
+  explicit FeatureExtractor(const FeatureOptions& options);
+
+  // Accepts 8-bit grey (CV_8UC1) and 8-bit BGR/BGRA (CV_8UC3/4) images. Status kInvalidInput for
+  // an empty image or any other pixel type (named in the message). An image without texture
+  // gives an OK result with zero keypoints; callers decide whether that is enough.
+  Expected<ImageFeatures> extract(const cv::Mat& image, const cv::Mat& mask = cv::Mat());
+
+  const FeatureOptions& options() const { return options_; }
+
+ private:
+  FeatureOptions options_;
+  cv::Ptr<cv::Feature2D> detector_;
+};
+
+// Converts an 8-bit grey/BGR/BGRA image to grey; kInvalidInput for anything else.
+Expected<cv::Mat> toGray8(const cv::Mat& image);
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,31 @@
+// A scene plane in a camera frame and the homography it induces between two cameras under planar
+// motion (docs/math.md §1.1-§1.2). The type every module shares: route storage, Fast-HD, the
+// classic decomposition, plane estimation and the μ wall model.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+
+namespace homography_teach_repeat {
+
+// A plane in the reference camera frame (MATH.md §1.1): nᵀ X = d with n a unit vector pointing
+// from the camera towards the plane (visible points have nᵀ K⁻¹ p > 0) and d > 0 [m].
+struct ScenePlane {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double distance = 1.0;
+
+  // kInvalidInput for a non-unit or non-finite normal or a distance that is not > 0;
+  // kDegenerate for a floor/ceiling plane (nx = nz = 0: Π is singular, det Π = d²(nx² + nz²)).
+  Status validate() const;
+};
+
+// The homography a plane induces between a reference camera and a camera at `pose`
+// (MATH.md §1.2): H21 ∝ K (R21 − t21 n1ᵀ / d1) K⁻¹, t21 = R21 C. Unit Frobenius norm.
+// Used to synthesise exact data and by the plane-parameter estimation.
+Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const PlanarPose& pose,
+                                       const ScenePlane& plane);
+
+}  // namespace homography_teach_repeat

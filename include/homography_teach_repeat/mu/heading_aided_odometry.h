@@ -1,0 +1,138 @@
+// The robot pose of the μ mode (paper 002 §5): wheel odometry corrected by the μ of vertical lines.
+// An extended Kalman filter on the route-frame base pose (x, y, yaw):
+//  - predict: the odometry increment since the last reading, composed onto the estimate; the
+//    covariance grows by `position_variance_per_metre` (along and across the motion) and
+//    `heading_variance_per_metre` per metre travelled, `heading_variance_per_radian` per radian
+//    turned.
+//  - correct (correctWithMu): μ = h12/h22 measured against a reference keyframe whose wall
+//    (normal, distance from the teach phase) is known. The measurement model is the exact μ of
+//    the plane-induced 1D homography (MATH.md §4.4-4.5, planeHomography1d): μ depends on the
+//    heading *and* on the lateral offset (μ ≈ f (θ + tx/d)), the "over-rotation" paper 002
+//    relies on. Treating μ as a pure heading (f tanθ) puts a lateral offset of 15 cm into the
+//    heading as 5-9° near a wall (measured in the simulator) and the odometry then carries that
+//    error through the next turn; the filter instead splits the innovation between heading and
+//    lateral position by their covariances, and the two separate as the robot moves (the depth
+//    of the wall changes, a heading error turns into lateral motion).
+//  - correctHeading: a heading-only fix (a reference without a known wall), variance
+//    `heading_fix_variance`.
+// A μ fix must be confirmed by the previous frame's fix against the same keyframe (max_mu_step_px)
+// and is refused when its innovation exceeds `innovation_gate` standard deviations (a wrong line
+// association gave fixes 38° and 97° off in the simulator); `refused_before_reset` refusals in a
+// row mean the estimate is the wrong one: the covariance is widened and the next fix is taken.
+// The pose lives in the route frame (the teach run's odometry frame); alignment() is the
+// map -> odom transform, estimate ∘ odom⁻¹.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <optional>
+
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/common/status.h"
+
+namespace homography_teach_repeat {
+
+struct HeadingAidedOdometryOptions {
+  double initial_position_variance = 0.0025;   // [m²] at align() ((5 cm)²: placed at the keyframe)
+  double position_variance_per_metre = 0.0025;  // [m²/m] (5 cm after 1 m)
+  double heading_fix_variance = 7.6e-5;         // [rad²] ((0.5°)²): align() and correctHeading()
+  double heading_variance_per_metre = 1.0e-3;   // [rad²/m] (1.8° after 1 m)
+  double heading_variance_per_radian = 1.0e-4;  // [rad²/rad] (turning in place)
+  double min_mu_variance = 4.0;                 // [px²] floor of a μ measurement's variance
+  double innovation_gate = 4.0;                 // [σ] > 0
+  int refused_before_reset = 20;                // >= 1
+  // A μ fix is taken only when it agrees with the previous frame's μ against the same keyframe:
+  // the change of μ between the two within this [px] of the change the odometry predicts, the
+  // frames at most `max_confirmation_distance` [m] of odometry apart. A wrong line association is
+  // a single frame (in the simulator ~2 % of the fixes were 30-300 px off, never two in a row
+  // agreeing), and the filter's own gate lets it through after turns, when the heading is
+  // uncertain.
+  double max_mu_step_px = 10.0;                 // > 0
+  double max_confirmation_distance = 0.3;       // [m] > 0
+  double reset_position_variance = 0.04;        // [m²] added after refused_before_reset ((20 cm)²)
+  double reset_heading_variance = 0.03;         // [rad²] added after refused_before_reset ((10°)²)
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// A μ measured against a reference keyframe with a known wall.
+struct MuObservation {
+  double mu = 0.0;               // [px], centred (HeadingCorrection::mu)
+  double variance = 4.0;         // [px²]; raised to min_mu_variance
+  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
+  Eigen::Vector2d wall_normal = Eigen::Vector2d::UnitY();  // (nx, nz) in the reference camera frame, unit
+  double wall_distance = 1.0;    // [m] > 0
+  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
+  double focal_px = 500.0;       // the μ focal length [px]
+  int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
+};
+
+// The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
+// camera frame) for a μ observation (mu left 0); nullopt without a plane or for a plane that is
+// not a wall (|(nx, nz)| <= 0.5: floor or ceiling, where μ says nothing about it).
+std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
+                                      const Pose2D& camera_mount, double focal_px, int reference_id);
+// The centred 1D homography the observation's wall induces between the reference camera and the
+// camera of a robot at `base` (route frame), MATH.md §4.4 (planeHomography1d); its h12/h22 is the
+// μ the filter predicts, and it tells the line matcher where the reference lines should be.
+Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
+
+class HeadingAidedOdometry {
+ public:
+  // Throws std::invalid_argument on invalid options.
+  explicit HeadingAidedOdometry(const HeadingAidedOdometryOptions& options = {});
+
+  // The robot is at `route_pose` while its odometry reads `odom_pose`. kInvalidInput on
+  // non-finite input.
+  Status align(const Pose2D& route_pose, const Pose2D& odom_pose);
+  bool aligned() const { return aligned_; }
+
+  // A μ fix taken when the odometry read `odom_pose`. kInvalidInput on non-finite input or a bad
+  // observation, kNoConsensus when not aligned yet, not confirmed by the previous frame (see
+  // max_mu_step_px; the first fix of a run waits for its confirmation) or refused by the
+  // innovation gate, kDegenerate when the wall is not in front of both cameras.
+  Status correctWithMu(const MuObservation& observation, const Pose2D& odom_pose);
+  // A heading-only fix: the robot's yaw in the route frame was `route_yaw` when its odometry
+  // read `odom_pose`. Same statuses (the gate applies).
+  Status correctHeading(double route_yaw, const Pose2D& odom_pose);
+
+  // The robot pose in the route frame for the odometry reading `odom_pose`, and its (x, y, yaw)
+  // covariance. kNoConsensus when not aligned, kInvalidInput on non-finite input.
+  Expected<Pose2D> routePose(const Pose2D& odom_pose);
+  const Eigen::Matrix3d& covariance() const { return covariance_; }
+  // The pose routePose would give for `odom_pose`, without moving the filter on (a prediction for
+  // matching; the filter only ever integrates odometry forward through routePose and the fixes).
+  Expected<Pose2D> predictedPose(const Pose2D& odom_pose) const;
+  // Odometry distance [m] travelled since the last accepted fix (or the alignment).
+  double distanceSinceFix() const { return distance_since_fix_; }
+  int refusedInARow() const { return refused_in_a_row_; }
+
+  // The map -> odom transform (route frame -> odometry frame).
+  Pose2D alignment() const;
+
+ private:
+  // The odometry motion since the last prediction (kInvalidInput: non-finite odometry,
+  // kNoConsensus: not aligned yet).
+  Expected<Pose2D> odometryStepTo(const Pose2D& odom_pose) const;
+  Status predict(const Pose2D& odom_pose);
+  // Scalar EKF update; `innovation` = measured − predicted, `jacobian` = ∂predicted/∂(x, y, yaw).
+  Status update(double innovation, const Eigen::RowVector3d& jacobian, double variance, const char* what);
+
+  struct PreviousMu {
+    int reference_id = -1;
+    double mu = 0.0;
+    Pose2D odom;
+  };
+
+  HeadingAidedOdometryOptions options_;
+  std::optional<PreviousMu> previous_mu_;
+  bool aligned_ = false;
+  Pose2D estimate_;
+  Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
+  Pose2D last_odom_;
+  double distance_since_fix_ = 0.0;  // [m]
+  int refused_in_a_row_ = 0;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,17 @@
+// repeat_node's parameters (config/repeat_node.yaml documents each) and its dynamic_reconfigure
+// tunables (cfg/Repeat.cfg).
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include "homography_teach_repeat/RepeatConfig.h"
+#include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
+
+namespace homography_teach_repeat {
+
+// Throws std::runtime_error naming the bad parameter.
+RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh);
+// The run-time tunables of RepeatOptions as dynamic_reconfigure reports them.
+void writeRepeatTunables(const RepeatOptions& options, RepeatConfig& config);
+
+}  // namespace homography_teach_repeat

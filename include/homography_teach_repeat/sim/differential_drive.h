@@ -1,0 +1,60 @@
+// A differential-drive base for the simulator: the true pose integrated exactly along arcs from
+// (v, w) commands within the base's limits, and wheel odometry with the errors that make
+// odometry-only repeat fail (paper 002: > 4 m after 5 laps): a scale error of the travelled
+// distance, a heading bias per metre (unequal wheel radii), and random walk noise.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <utility>
+
+#include "homography_teach_repeat/geometry/planar_pose.h"
+
+namespace homography_teach_repeat {
+
+struct OdometryErrorModel {
+  double scale_error = 0.0;             // measured distance = (1 + scale_error) * true distance
+  double heading_bias_per_metre = 0.0;  // [rad/m] yaw error added per metre travelled (CCW +)
+  double distance_noise = 0.0;          // [m/sqrt(m)] random walk of the distance
+  double heading_noise = 0.0;           // [rad/sqrt(m)] random walk of the yaw
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct DriveLimits {
+  double max_linear_velocity = 1.0;   // [m/s] > 0
+  double max_angular_velocity = 2.0;  // [rad/s] > 0
+
+  void validate() const;
+};
+
+// Exact pose after driving (v, w) for dt from `pose` (a straight line when w is ~0).
+Pose2D integrateArc(const Pose2D& pose, double v, double w, double dt);
+
+class DifferentialDriveSim {
+ public:
+  // Throws std::invalid_argument on invalid models or a non-finite start.
+  DifferentialDriveSim(const Pose2D& start, const OdometryErrorModel& odometry_errors,
+                       const DriveLimits& limits, std::uint64_t seed = 1);
+
+  // One step with the commanded velocities (clamped to the limits; non-finite commands are
+  // treated as zero). Returns the velocities actually applied.
+  std::pair<double, double> step(double v, double w, double dt);
+
+  const Pose2D& truth() const { return truth_; }
+  const Pose2D& odometry() const { return odometry_; }
+  double distanceTravelled() const { return distance_; }
+  // Teleport (tests, resets): truth and odometry to the given poses.
+  void reset(const Pose2D& truth, const Pose2D& odometry);
+
+ private:
+  OdometryErrorModel errors_;
+  DriveLimits limits_;
+  cv::RNG rng_;
+  Pose2D truth_;
+  Pose2D odometry_;
+  double distance_ = 0.0;
+};
+
+}  // namespace homography_teach_repeat

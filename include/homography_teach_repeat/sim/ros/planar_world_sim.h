@@ -1,0 +1,83 @@
+// planar_world_sim: a camera, a laser scanner and a differential base in a PlanarWorld (walls
+// with photographs as textures). A thin wrapper over WorldRenderer and DifferentialDriveSim (core).
+// It owns the simulated time: it steps the physics at `physics_rate`, publishes /clock (run the
+// other nodes with use_sim_time), and paces itself to `real_time_factor` times real time.
+//
+// Subscribes: cmd_vel (geometry_msgs/Twist; older than cmd_vel_timeout [sim s]: zero)
+// Publishes:  camera/image_raw + camera/camera_info (bgr8, at camera_rate), odom
+//             (nav_msgs/Odometry with the odometry error model, frame odom -> base_link),
+//             ground_truth (nav_msgs/Odometry, frame world -> base_link), scan
+//             (sensor_msgs/LaserScan, at scan_rate, when scan_count > 0), /clock;
+//             tf odom -> base_link, base_link -> camera_optical_frame (the camera mount), and the
+//             ground truth world -> ground_truth/base_link
+// Parameters: see config/planar_world_sim.yaml
+#pragma once
+
+#include <geometry_msgs/Twist.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <atomic>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "homography_teach_repeat/sim/differential_drive.h"
+#include "homography_teach_repeat/sim/planar_world.h"
+#include "homography_teach_repeat/sim/world_renderer.h"
+
+namespace homography_teach_repeat {
+
+class PlanarWorldSim {
+ public:
+  // Throws std::runtime_error naming the parameter or the world file on any problem.
+  PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+  ~PlanarWorldSim();
+
+  // Runs the simulation loop until ros::ok() is false (call from main, callbacks need a spinner).
+  void run();
+
+ private:
+  void onCommand(const geometry_msgs::TwistConstPtr& command);
+  void publishState(const ros::Time& stamp);
+  void publishCamera(const ros::Time& stamp, double sim_seconds);
+  void publishScan(const ros::Time& stamp);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  PlanarWorld world_;
+  std::optional<WorldRenderer> renderer_;
+  std::optional<DifferentialDriveSim> robot_;
+  cv::RNG rng_;
+  double physics_rate_ = 100.0;
+  double camera_rate_ = 10.0;
+  double scan_rate_ = 10.0;
+  double real_time_factor_ = 1.0;
+  double cmd_vel_timeout_ = 0.5;
+  double camera_mount_x_ = 0.2;
+  double camera_height_ = 0.5;
+  double start_time_ = 1.0;
+  int scan_count_ = 0;
+  double scan_angle_min_ = -M_PI / 2, scan_angle_max_ = M_PI / 2, scan_range_max_ = 8.0;
+  std::string odom_frame_, base_frame_, camera_frame_, world_frame_, ground_truth_prefix_;
+
+  std::mutex command_mutex_;
+  double command_v_ = 0.0, command_w_ = 0.0;
+  double command_stamp_ = -1.0;          // [simulated s] of the last cmd_vel
+  std::atomic<double> sim_seconds_{0.0};  // current simulated time
+
+  ros::Subscriber command_subscriber_;
+  image_transport::ImageTransport image_transport_;
+  image_transport::CameraPublisher camera_publisher_;
+  ros::Publisher odometry_publisher_;
+  ros::Publisher ground_truth_publisher_;
+  ros::Publisher scan_publisher_;
+  ros::Publisher clock_publisher_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,75 @@
+// One estimator per repeat mode: what an image offers (features or vertical lines) and what it
+// gives against one reference (docs/math.md §1, §3.4, §4).
+//  - fast_hd: features matched to the reference, robust homography, Fast-HD with the reference's
+//    plane, its covariance and the 3-DoF refinement; checked against the plane (residual, normal);
+//  - classic: the classic decomposition with the positive-depth test, the solution whose normal
+//    is closest to the reference's plane, scaled by its distance (a baseline without covariance);
+//  - mu: vertical lines matched to the reference's, 1D homography, μ and the heading (paper 002),
+//    the matching guided by the reference wall's 1D homography at a predicted pose.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
+
+namespace homography_teach_repeat {
+
+// What one image offers the estimators.
+struct FrameObservations {
+  ImageFeatures features;           // fast_hd/classic
+  std::vector<VerticalLine> lines;  // mu
+};
+
+// What every estimator knows of the route.
+struct EstimatorContext {
+  PinholeCamera camera;
+  FeatureType feature_type = FeatureType::kSift;  // of the taught keyframes
+  Pose2D camera_mount;               // the camera forward frame in base_link (route info)
+  std::vector<Pose2D> keyframe_poses;  // route frame, by keyframe index
+  RepeatOptions options;
+};
+
+class KeyframeEstimator {
+ public:
+  explicit KeyframeEstimator(EstimatorContext context);
+  virtual ~KeyframeEstimator() = default;
+  KeyframeEstimator(const KeyframeEstimator&) = delete;
+  KeyframeEstimator& operator=(const KeyframeEstimator&) = delete;
+
+  // The measurements of `image` (`gray`: the same image as 8-bit grey, for the point modes).
+  virtual Expected<FrameObservations> observe(const cv::Mat& image, const cv::Mat& gray) = 0;
+  // Against `reference`, which is route keyframe `keyframe` or a temporary reference that came
+  // from it. `predicted_pose` (route frame): a prior the mode may use (mu: the filter's).
+  virtual Expected<RepeatEstimate> estimate(const KeyframeReference& reference, int keyframe,
+                                            const FrameObservations& frame,
+                                            const std::optional<Pose2D>& predicted_pose) const = 0;
+  // Whether `reference` can give this mode a measurement for a robot at `predicted_pose`.
+  virtual bool usable(const KeyframeReference& reference, int keyframe,
+                      const std::optional<Pose2D>& predicted_pose) const;
+  // The point modes: a pose from point matches against `reference` (pixels as measured, e.g.
+  // followed by optical flow). kInvalidInput in mu mode.
+  virtual Expected<RepeatEstimate> estimateFromMatches(const KeyframeReference& reference, int keyframe,
+                                                       const PointMatches& measured) const;
+  virtual bool usesPointFeatures() const { return false; }
+
+  const EstimatorContext& context() const { return context_; }
+
+ protected:
+  double keyframeYaw(int keyframe) const { return context_.keyframe_poses[static_cast<std::size_t>(keyframe)].yaw; }
+  EstimatorContext context_;
+  CameraMount mount_;
+};
+
+std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext& context);
+
+}  // namespace homography_teach_repeat

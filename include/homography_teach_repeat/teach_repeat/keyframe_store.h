@@ -1,0 +1,56 @@
+// The taught keyframes as the repeat phase uses them: each keyframe's features (fast_hd, classic)
+// or vertical lines (mu), its pose, its scene plane and whether the teach run was turning there.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+namespace homography_teach_repeat {
+
+// What an image is localized against: a route keyframe, or the temporary reference (a recent
+// frame that was localized; RepeatLocalizer).
+struct KeyframeReference {
+  ImageFeatures features;              // fast_hd/classic
+  std::vector<VerticalLine> lines;     // mu
+  Pose2D base_pose;                    // route frame
+  std::optional<ScenePlane> plane;     // camera frame of this reference
+  double heading_offset = 0.0;         // mu mode: yaw of this reference relative to its keyframe
+  bool turn = false;                   // the teach run turned here (isTurnKeyframe)
+};
+
+// Whether the teach run turned between two keyframes: their yaws differ by more than 0.1 rad +
+// 1 rad/m · their distance (driving a straight segment, the heading varies by a few degrees over
+// the keyframe spacing).
+bool turnedBetween(const Pose2D& a, const Pose2D& b);
+
+class KeyframeStore {
+ public:
+  // Loads what `options.mode` needs of every keyframe. kInvalidInput naming the file for a corrupt
+  // keyframe, for a route without keyframes, and when fast_hd/classic meets a keyframe without a
+  // plane. fast_hd/classic with plane_feature_tolerance_px > 0: each keyframe keeps only the
+  // features on its plane (restrictToPlaneFeatures).
+  static Expected<KeyframeStore> load(const Route& route, const RepeatOptions& options);
+
+  int size() const { return static_cast<int>(keyframes_.size()); }
+  const KeyframeReference& at(int keyframe) const { return keyframes_[static_cast<std::size_t>(keyframe)]; }
+  std::vector<Pose2D> poses() const;
+
+ private:
+  // Every vertical plane's homography under planar motion has the same form, and a side wall
+  // close to the camera can out-vote the keyframe's wall in the robust fit: Fast-HD with the
+  // keyframe's plane then gives a wrong pose that no residual reveals. So each keyframe keeps only
+  // the features that move as its plane predicts to a neighbouring keyframe.
+  void restrictToPlaneFeatures(const PinholeCamera& camera, const CameraMount& mount, const RepeatOptions& options);
+
+  std::vector<KeyframeReference> keyframes_;
+};
+
+}  // namespace homography_teach_repeat

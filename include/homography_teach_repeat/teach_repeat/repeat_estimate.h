@@ -1,0 +1,107 @@
+// The repeat phase's vocabulary: the modes, their options and what one frame's localization
+// against a reference gives. Shared by the keyframe estimators, the localizer and the pipeline.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <string>
+
+#include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+#include "homography_teach_repeat/mu/heading_correction.h"
+
+namespace homography_teach_repeat {
+
+enum class RepeatMode { kFastHd, kMu, kClassic };
+
+// "fast_hd", "mu", "classic"; throws std::invalid_argument naming the accepted values.
+RepeatMode repeatModeFromString(const std::string& name);
+std::string toString(RepeatMode mode);
+
+struct RepeatOptions {
+  RepeatMode mode = RepeatMode::kFastHd;
+  int max_features = 1500;
+  MatchOptions matching;
+  PlanarPoseEstimatorOptions pose;
+  HeadingCorrectionOptions heading;
+  VerticalLineOptions lines;
+  int min_inliers = 15;          // fewer homography inliers: the reference fails
+  int neighbour_search = 2;      // keyframes tried on each side of the tracked one
+  int max_degraded_frames = 30;  // consecutive frames on a temporary reference
+  // fast_hd: the RMS transfer error [px] of the inliers under the homography the estimated pose
+  // and the keyframe's plane induce; above it the estimate is refused (another wall dominates).
+  double max_plane_residual_px = 3.0;
+  // fast_hd: with at least `min_normal_check_parallax` (|t|/d of the classic decomposition) the
+  // plane in view must have a normal within `max_normal_angle` [rad] of the keyframe plane's.
+  double max_normal_angle = 0.35;
+  double min_normal_check_parallax = 0.03;
+  // fast_hd/classic: each keyframe matches with the features on its plane only: those that move
+  // as the plane predicts to the neighbouring keyframe within this tolerance [px] (0: all).
+  double plane_feature_tolerance_px = 2.0;
+  // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
+  // the neighbour search wrap around from the last keyframe to the first (0: never).
+  double closed_route_gap = 1.0;
+  // mu mode: μ measures the heading only up to its translation coupling f·tx·cosφ/d (MATH.md
+  // §4.5): a lateral offset tx seen against a wall d away reads as a rotation of about tx/d. So
+  //  - keyframes the teach run reached turning in place or started turning at (yaw changed by
+  //    more than kTurnKeyframeAngle + kTurnKeyframeRate · distance from the previous or to the
+  //    next keyframe) give no
+  //    heading fix when `mu_skip_turn_keyframes`: at a corner the walls are about 1 m away and
+  //    such fixes were 5-12° off in the simulator with the robot within 3 cm of the keyframe;
+  //  - with a pose prior (localize()'s `predicted_pose`), only keyframes whose yaw is within
+  //    `mu_max_reference_angle` [rad] of it are tried (a keyframe 60-90° away from the robot's
+  //    heading shares no lines with the image, and a wrong association gave fixes 90° off).
+  bool mu_skip_turn_keyframes = true;
+  double mu_max_reference_angle = 0.2;
+  // fast_hd/classic: after a frame localized against a route keyframe, up to this many following
+  // frames take that frame's inlier matches on by pyramidal Lucas-Kanade optical flow (checked
+  // forward and backward) instead of detecting and matching features: the keyframe pixels stay,
+  // the current pixels move with the image. Feature extraction is most of a frame's cost (SIFT at
+  // 640x480: ~45 of ~50 ms on 2 cores; bench_repeat_localizer), tracking ~5 ms, so at 30 Hz the
+  // node keeps up instead of dropping frames. A frame is detected again when tracking gives too
+  // few points or no estimate, when the tracked keyframe changes, after a degraded estimate, and
+  // after this many tracked frames (which bounds the drift of chained tracks). 0: every frame is
+  // detected.
+  int max_tracked_frames = 2;
+  // Forward-backward check of a tracked point [px]: tracked back into the previous frame it must
+  // land within this distance of where it started.
+  double tracking_tolerance_px = 0.5;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct RepeatEstimate {
+  RepeatMode mode = RepeatMode::kFastHd;
+  int keyframe = -1;      // reference keyframe; for a degraded estimate, the keyframe the
+                          // temporary reference was localized against
+  bool degraded = false;  // localized against the temporary reference
+  int matches = 0;        // tentative matches (features or lines)
+  int inliers = 0;
+  // The matches came from the previous frame's inliers by optical flow (RepeatOptions::
+  // max_tracked_frames), not from feature detection and matching.
+  bool tracked = false;
+  bool has_pose = false;  // false in mu mode
+  Pose2D base_pose;       // base_link in the route frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw), route frame
+  bool covariance_known = false;                         // false in classic mode
+  PlanarPose camera_relative;  // current camera in the reference camera frame (MATH.md §1.1)
+  double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
+  double mu = 0.0;                  // mu mode: h12/h22 [px]
+  // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.
+  // distorted) for visualisation; mu mode: the matched line x at the principal row.
+  PointMatches inlier_matches;
+};
+
+// Where the wall-clock time of the last localize() call went (repeat_node reports it in its
+// diagnostics: on a slow machine it says whether the features or the references cost the time).
+struct LocalizeTiming {
+  double extraction_ms = 0.0;  // features (or vertical lines, mu mode; or tracking) of the image
+  double references_ms = 0.0;  // matching and estimation against every reference tried
+  int references_tried = 0;    // route keyframes and the temporary reference
+  bool tracked = false;        // the estimate came from tracking (RepeatEstimate::tracked)
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,93 @@
+// The vision part of the repeat phase: localizes the current image against the keyframes of a
+// taught route and gives the pose of base_link in the route frame (the odometry frame of the teach
+// run, in which the keyframe poses are stored) with its covariance, or (mu) the heading fix.
+// It composes the keyframe store, the reference selection, the frame tracker and the mode's
+// estimator (keyframe_estimators.h):
+//  - reference keyframe: the tracked one, then its neighbours (k+1, k−1, k+2, ...) when it fails;
+//    tracking moves on when the robot is closer to the next keyframe than to the current one;
+//  - lost tracking (every candidate fails): the last good current image becomes a temporary
+//    reference (paper 000's outdoor experiment) and estimates are flagged `degraded`; after
+//    `max_degraded_frames` such frames, or when that fails too, localization reports failure;
+//  - point modes: frames between detections follow the last inliers by optical flow.
+// A failed estimate never gives a pose. The odometry, the μ filter and the odometry gate are the
+// RepeatPipeline's (repeat_pipeline.h).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/teach_repeat/frame_tracker.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_estimators.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
+#include "homography_teach_repeat/teach_repeat/reference_selection.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+namespace homography_teach_repeat {
+
+// Whether a route is a loop: at least 3 keyframes and the last within `max_gap` [m] of the first.
+bool isClosedRoute(const Route& route, double max_gap);
+
+class RepeatLocalizer {
+ public:
+  // Loads every keyframe's features or lines. kInvalidInput naming the file for a corrupt
+  // keyframe; kInvalidInput when fast_hd/classic mode meets a route without planes.
+  static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
+
+  // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the failure
+  // of the last reference tried (never a pose). mu mode: `predicted_pose` (route frame, the μ
+  // filter's) restricts the references to those facing the same way and guides the line
+  // matching. Ignored in the other modes and when not finite.
+  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose = std::nullopt);
+
+  // Of the last localize() call (initializeGlobally: of its last localize()), failed ones too.
+  const LocalizeTiming& lastTiming() const { return timing_; }
+
+  // Start anywhere: tries every keyframe alone and tracks the one with most inliers.
+  Expected<RepeatEstimate> initializeGlobally(const cv::Mat& image);
+
+  void setTrackedKeyframe(int keyframe);
+  // Tracking from a position known otherwise (mu mode: the μ filter's, which vision does not give).
+  void advanceTrackingTo(const Pose2D& robot) { selector_.advanceTo(robot); }
+  int trackedKeyframe() const { return selector_.tracked(); }
+  bool closedRoute() const { return selector_.closedRoute(); }
+  int keyframeCount() const { return keyframes_.size(); }
+  // mu mode: whether keyframe k was reached turning (gives no heading fix, see
+  // RepeatOptions::mu_skip_turn_keyframes). The first keyframe never is: the run starts there.
+  bool isTurnKeyframe(int keyframe) const;
+  const Route& route() const { return route_; }
+  const PinholeCamera& camera() const { return estimator_->context().camera; }
+  const RepeatOptions& options() const { return estimator_->context().options; }
+
+ private:
+  RepeatLocalizer(const Route& route, KeyframeStore keyframes, std::unique_ptr<KeyframeEstimator> estimator);
+  // Against the candidates near the tracked keyframe, then the temporary reference.
+  Expected<RepeatEstimate> localizeAgainstCandidates(const FrameObservations& frame, const cv::Mat& gray,
+                                                     const std::optional<Pose2D>& predicted_pose, int neighbour_search,
+                                                     int max_degraded_frames);
+  Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray);
+  // The frame that just localized against keyframe `k` becomes the temporary reference.
+  void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate, const KeyframeReference& from);
+  // Keeps the estimate's inliers for the optical flow of the next frames (or forgets them).
+  void rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked);
+  void advanceTracking(const RepeatEstimate& estimate);
+
+  Route route_;
+  KeyframeStore keyframes_;
+  std::unique_ptr<KeyframeEstimator> estimator_;
+  ReferenceSelector selector_;
+  FrameTracker tracker_;
+  std::optional<KeyframeReference> temporary_;
+  int temporary_keyframe_ = -1;
+  int degraded_frames_ = 0;
+  LocalizeTiming timing_;
+};
+
+}  // namespace homography_teach_repeat

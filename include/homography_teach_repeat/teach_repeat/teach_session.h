@@ -1,0 +1,82 @@
+// The teach phase without ROS: decides which images become keyframes, stores them (image,
+// features, vertical lines, odometry pose) in a crash-safe route, and at the end estimates the
+// scene planes along the keyframes (MATH.md §2, plane_estimation.h) with the user-given distance
+// of the first plane, writing them into the route. teach_node is a thin wrapper around this.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_policy.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
+
+namespace homography_teach_repeat {
+
+struct TeachOptions {
+  std::string route_directory;
+  bool overwrite = false;
+  FeatureOptions features;
+  MatchOptions matching;
+  RobustHomographyOptions robust;
+  VerticalLineOptions lines;
+  KeyframePolicy keyframes;
+  double first_plane_distance = 0.0;  // [m], > 0 for plane estimation; 0 skips it
+  // Planes from each keyframe pair's homography and the odometry motion (estimatePlanesFromOdometry:
+  // routes past several walls, e.g. round a room) instead of the paper's single plane tracked
+  // from the first keyframe; first_plane_distance is then not needed.
+  bool planes_from_odometry = false;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct PlaneEstimationReport {
+  int keyframes = 0;
+  int planes = 0;  // keyframes that received a plane
+  std::vector<std::string> messages;  // one line per problem (pair and reason)
+};
+
+class TeachSession {
+ public:
+  // Creates the route directory (a clear kInvalidInput if it cannot: read-only, exists...).
+  // `camera_mount`: the camera optical centre and yaw in base_link.
+  static Expected<TeachSession> start(const TeachOptions& options,
+                                      const CameraCalibration& calibration,
+                                      const Pose2D& camera_mount);
+
+  // Stores the image as a keyframe if the policy says so. Returns true when stored, false when
+  // skipped; kInvalidInput for an empty/odd image, a non-finite pose, or a calibration of a
+  // different size than the route's; write failures as returned by the route writer.
+  Expected<bool> offer(const cv::Mat& image, const Pose2D& odometry_pose, double stamp);
+
+  // Plane estimation over the stored keyframes (needs >= 2 keyframes and
+  // first_plane_distance > 0): the homographies between consecutive keyframes (undistorted
+  // matches, robust estimator), MATH.md §2 along the route with the odometry motion breaking the
+  // β ≈ 0 tie; keyframes after a failed pair get no plane. Writes the route index.
+  Expected<PlaneEstimationReport> finish();
+
+  const Route& route() const { return writer_->route(); }
+  int keyframeCount() const { return static_cast<int>(writer_->route().keyframes.size()); }
+
+ private:
+  TeachSession(const TeachOptions& options, const CameraCalibration& calibration);
+
+  TeachOptions options_;
+  PinholeCamera camera_;
+  FeatureExtractor features_;
+  VerticalLineExtractor lines_;
+  std::optional<RouteWriter> writer_;
+  std::optional<Pose2D> last_keyframe_pose_;
+  std::vector<ImageFeatures> keyframe_features_;  // kept for the plane estimation
+};
+
+}  // namespace homography_teach_repeat

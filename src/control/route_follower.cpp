@@ -1,0 +1,208 @@
+#include "homography_teach_repeat/control/route_follower.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace homography_teach_repeat {
+
+std::string toString(FollowState state) {
+  switch (state) {
+    case FollowState::kWaiting: return "waiting";
+    case FollowState::kFollowing: return "following";
+    case FollowState::kStopped: return "stopped";
+    case FollowState::kFinished: return "finished";
+  }
+  return "unknown";
+}
+
+void RouteFollowerOptions::validate() const {
+  controller.validate();
+  if (!std::isfinite(pose_timeout) || !(pose_timeout > 0.0)) {
+    throw std::invalid_argument("pose_timeout must be finite and > 0");
+  }
+  if (start_index < 0) throw std::invalid_argument("start_index must be >= 0");
+  if (laps < 1) throw std::invalid_argument("laps must be >= 1");
+  auto positive = [](double value, const char* name) {
+    if (!std::isfinite(value) || !(value > 0.0)) {
+      throw std::invalid_argument(std::string(name) + " must be finite and > 0");
+    }
+  };
+  if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
+    throw std::invalid_argument("closed_route_gap must be finite and >= 0");
+  }
+  positive(corner_radius, "corner_radius");
+  positive(corner_tolerance, "corner_tolerance");
+  if (!std::isfinite(turn_in_place_angle) || turn_in_place_angle < 0.0 || turn_in_place_angle > M_PI) {
+    throw std::invalid_argument("turn_in_place_angle must be in [0, pi]");
+  }
+  positive(final_approach_distance, "final_approach_distance");
+  positive(final_goal_tolerance, "final_goal_tolerance");
+  positive(final_approach_gain, "final_approach_gain");
+  positive(final_turn_gain, "final_turn_gain");
+  positive(final_heading_tolerance, "final_heading_tolerance");
+  if (!(final_turn_angle > 0.0 && final_turn_angle <= M_PI)) {
+    throw std::invalid_argument("final_turn_angle must be in (0, pi]");
+  }
+}
+
+RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options)
+    : goals_(std::move(goals)), options_(options), controller_(options.controller) {
+  options_.validate();
+  if (goals_.empty()) throw std::invalid_argument("the route has no keyframe to follow");
+  const int last = options_.end_index < 0 ? static_cast<int>(goals_.size()) - 1 : options_.end_index;
+  if (options_.start_index >= static_cast<int>(goals_.size()) ||
+      last >= static_cast<int>(goals_.size()) || last < options_.start_index) {
+    throw std::invalid_argument("start_index/end_index outside the route's " +
+                                std::to_string(goals_.size()) + " keyframes");
+  }
+  const int count = static_cast<int>(goals_.size());
+  if (options_.return_to_start && options_.start_index > 0 && last == count - 1 &&
+      isClosedLoop(goals_, options_.closed_route_gap)) {
+    // A loop: every lap runs through all keyframes from start_index round to the keyframe the
+    // robot started at (start_index − 1), including the keyframe between the last and the first.
+    for (int lap = 0; lap < options_.laps; ++lap) {
+      for (int i = 0; i < count; ++i) sequence_.push_back((options_.start_index + i) % count);
+    }
+    goals_per_lap_ = static_cast<std::size_t>(count);
+  } else {
+    for (int lap = 0; lap < options_.laps; ++lap) {
+      for (int k = options_.start_index; k <= last; ++k) sequence_.push_back(k);
+    }
+    const int goals_per_lap = last - options_.start_index + 1;
+    goals_per_lap_ = static_cast<std::size_t>(goals_per_lap);
+  }
+}
+
+int RouteFollower::lapOf(std::size_t position) const {
+  return static_cast<int>(std::min(position / goals_per_lap_, static_cast<std::size_t>(options_.laps - 1)));
+}
+
+void RouteFollower::setControllerParameters(const PotentialFieldParameters& parameters) {
+  controller_.setParameters(parameters);
+  options_.controller = parameters;
+}
+
+void RouteFollower::retune(const RouteFollowerOptions& options) {
+  options.validate();
+  setControllerParameters(options.controller);
+  // Everything but the goal sequence, which was unrolled at construction.
+  const RouteFollowerOptions kept = options_;
+  options_ = options;
+  options_.start_index = kept.start_index;
+  options_.end_index = kept.end_index;
+  options_.laps = kept.laps;
+  options_.return_to_start = kept.return_to_start;
+  options_.closed_route_gap = kept.closed_route_gap;
+}
+
+Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_offset) {
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) ||
+      !std::isfinite(stamp) || !std::isfinite(heading_offset)) {
+    invalid_ = true;
+    return Status(StatusCode::kInvalidInput, "localization fix is not finite: stopping");
+  }
+  invalid_ = false;
+  lost_ = false;
+  has_fix_ = true;
+  pose_ = pose;
+  stamp_ = stamp;
+  heading_offset_ = heading_offset;
+  return Status::ok();
+}
+
+void RouteFollower::setLost(const std::string& reason, double stamp) {
+  if (has_fix_ && stamp <= stamp_) return;
+  lost_ = true;
+  lost_reason_ = reason;
+}
+
+FollowOutput RouteFollower::stop(FollowState state, const std::string& reason) {
+  controller_.reset();
+  FollowOutput out;
+  out.state = state;
+  out.reason = reason;
+  out.goal_index = next_ < sequence_.size() ? sequence_[next_] : -1;
+  out.lap = lapOf(std::min(next_, sequence_.size() - 1));
+  out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
+  return out;
+}
+
+FollowOutput RouteFollower::update(double now, double dt,
+                                   const std::vector<Eigen::Vector2d>& obstacles) {
+  if (next_ >= sequence_.size()) return stop(FollowState::kFinished, "end of the route");
+  if (!has_fix_) return stop(FollowState::kWaiting, "no localization yet");
+  if (invalid_) return stop(FollowState::kStopped, "non-finite localization");
+  if (lost_) return stop(FollowState::kStopped, "localization lost: " + lost_reason_);
+  if (!std::isfinite(now) || now - stamp_ > options_.pose_timeout) {
+    return stop(FollowState::kStopped, "localization older than pose_timeout (" +
+                                           std::to_string(now - stamp_) + " s)");
+  }
+  // Goals reached (distance < ε; and heading within δ when required, paper 002 Fig. 8) are passed;
+  // the last one has its own test (finalApproach).
+  auto reached = [&](std::size_t position) {
+    const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
+    const bool near = std::hypot(goal.x - pose_.x, goal.y - pose_.y) < toleranceOf(position);
+    return near && (!options_.require_goal_heading ||
+                    std::abs(wrapToPi(goal.yaw - pose_.yaw)) < options_.controller.goal_heading_tolerance);
+  };
+  while (next_ + 1 < sequence_.size() && reached(next_)) ++next_;
+  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
+  const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
+  if (next_ + 1 == sequence_.size() && (at_final_position_ || distance < options_.final_approach_distance)) {
+    const auto command = finalApproach(goal, distance, dt);
+    if (!command) {
+      next_ = sequence_.size();
+      return stop(FollowState::kFinished, "end of the route");
+    }
+    if (!*command) return stop(FollowState::kStopped, command->status().message());
+    return following(**command, distance);
+  }
+  const double bearing = goalBearing(pose_, goal, heading_offset_);
+  if (options_.turn_in_place_angle > 0.0 && std::abs(bearing) > options_.turn_in_place_angle) {
+    const auto command = controller_.track(0.0, options_.final_turn_gain * bearing, dt);
+    if (!command) return stop(FollowState::kStopped, command.status().message());
+    return following(*command, distance);
+  }
+  const auto command = controller_.step(distance, bearing, obstacles, dt);
+  if (!command) return stop(FollowState::kStopped, command.status().message());
+  return following(*command, distance);
+}
+
+double RouteFollower::toleranceOf(std::size_t position) const {
+  if (position + 1 >= sequence_.size()) return options_.controller.goal_tolerance;
+  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
+  const Pose2D& next = goals_[static_cast<std::size_t>(sequence_[position + 1])];
+  const bool corner = std::hypot(next.x - goal.x, next.y - goal.y) < options_.corner_radius;
+  return corner ? std::min(options_.corner_tolerance, options_.controller.goal_tolerance)
+                : options_.controller.goal_tolerance;
+}
+
+FollowOutput RouteFollower::following(const VelocityCommand& command, double distance) const {
+  FollowOutput out;
+  out.command = command;
+  out.state = FollowState::kFollowing;
+  out.goal_index = sequence_[next_];
+  out.lap = lapOf(next_);
+  out.distance_to_goal = distance;
+  out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
+  return out;
+}
+
+std::optional<Expected<VelocityCommand>> RouteFollower::finalApproach(const Pose2D& goal, double distance,
+                                                                      double dt) {
+  const RouteFollowerOptions& o = options_;
+  // Hysteresis: a new fix a little off the point does not restart the approach.
+  if (distance < o.final_goal_tolerance) at_final_position_ = true;
+  if (distance > 2.0 * o.final_goal_tolerance) at_final_position_ = false;
+  if (at_final_position_) {
+    const double heading_error = wrapToPi(goal.yaw - pose_.yaw - heading_offset_);
+    if (!o.align_final_heading || std::abs(heading_error) < o.final_heading_tolerance) return std::nullopt;
+    return controller_.track(0.0, o.final_turn_gain * heading_error, dt);
+  }
+  const double bearing = goalBearing(pose_, goal, heading_offset_);
+  if (std::abs(bearing) > o.final_turn_angle) return controller_.track(0.0, o.final_turn_gain * bearing, dt);
+  return controller_.track(o.final_approach_gain * distance * std::cos(bearing), o.final_turn_gain * bearing, dt);
+}
+
+}  // namespace homography_teach_repeat

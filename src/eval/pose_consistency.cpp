@@ -1,0 +1,72 @@
+#include "homography_teach_repeat/eval/pose_consistency.h"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+
+namespace homography_teach_repeat {
+
+Status PoseConsistency::add(const Pose2D& estimate, const Eigen::Matrix3d& covariance,
+                            const Pose2D& truth) {
+  auto reject = [this](const char* why) {
+    ++rejected_;
+    return Status(StatusCode::kInvalidInput, why);
+  };
+  if (!estimate.isFinite() || !truth.isFinite()) return reject("non-finite pose");
+  if (!covariance.allFinite()) return reject("non-finite covariance");
+  // Relative tolerance: the covariance comes from a float64 message, symmetric up to rounding.
+  if ((covariance - covariance.transpose()).cwiseAbs().maxCoeff() >
+      1e-9 * covariance.cwiseAbs().maxCoeff()) {
+    return reject("asymmetric covariance");
+  }
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(covariance);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+      (ldlt.vectorD().array() <= 0.0).any()) {
+    return reject("covariance not positive definite");
+  }
+  const Eigen::Vector3d error(estimate.x - truth.x, estimate.y - truth.y,
+                              wrapToPi(estimate.yaw - truth.yaw));
+  Sample s{};
+  s.position_error_squared = error.head<2>().squaredNorm();
+  s.heading_error_squared = error.z() * error.z();
+  s.position_variance = covariance(0, 0) + covariance(1, 1);
+  s.heading_variance = covariance(2, 2);
+  s.nees = error.dot(ldlt.solve(error));
+  samples_.push_back(s);
+  return Status::ok();
+}
+
+Expected<PoseConsistencySummary> PoseConsistency::summary() const {
+  if (samples_.empty()) return Status(StatusCode::kTooFewPoints, "no pose scored");
+  PoseConsistencySummary out;
+  out.samples = samples_.size();
+  std::vector<double> nees;
+  nees.reserve(samples_.size());
+  double position_error = 0.0, heading_error = 0.0, position_variance = 0.0, heading_variance = 0.0;
+  std::size_t above = 0;
+  for (const Sample& s : samples_) {
+    position_error += s.position_error_squared;
+    heading_error += s.heading_error_squared;
+    position_variance += s.position_variance;
+    heading_variance += s.heading_variance;
+    out.nees_mean += s.nees;
+    if (s.nees > kChiSquare3Dof95) ++above;
+    nees.push_back(s.nees);
+  }
+  const auto n = static_cast<double>(samples_.size());
+  out.position_error_rms = std::sqrt(position_error / n);
+  out.heading_error_rms = std::sqrt(heading_error / n);
+  out.position_sigma_rms = std::sqrt(position_variance / n);
+  out.heading_sigma_rms = std::sqrt(heading_variance / n);
+  out.nees_mean /= n;
+  out.fraction_above_chi2_95 = static_cast<double>(above) / n;
+  const auto middle = nees.begin() + static_cast<std::ptrdiff_t>(nees.size() / 2);
+  std::nth_element(nees.begin(), middle, nees.end());
+  out.nees_median = *middle;
+  if (nees.size() % 2 == 0)
+    out.nees_median = 0.5 * (out.nees_median + *std::max_element(nees.begin(), middle));
+  return out;
+}
+
+}  // namespace homography_teach_repeat

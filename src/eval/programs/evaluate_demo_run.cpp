@@ -1,0 +1,255 @@
+// evaluate_demo_run: scores simulated repeat runs against the taught path by ground truth and draws
+// them (scripts/demo).
+//   evaluate_demo_run --world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag]
+//                     [--laps N] [--mode M] --out DIR
+// Writes DIR/metrics.json: {"laps", "mode", "final_pos_err_m", "final_heading_err_deg",
+// "max_pos_err_m", "mean_pos_err_m", "final_path_err_m", "odometry_only_final_pos_err_m",
+// "odometry_only_final_heading_err_deg", "odometry_only_max_pos_err_m", "samples",
+// "controller_state", "finished", "distance_travelled_m", "route_distance_m"}. "finished": the
+// controller's last state was "finished" (a robot that never left the start is 0 m from the end
+// pose: the errors alone would call that a success); distance_travelled_m: along the ground truth;
+// route_distance_m: laps × the taught path. Exit code 3 when the run did not finish (metrics and
+// plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
+// must end at (a loop: its first keyframe, where the robot started; an open route: its last);
+// max/mean/final_path: distance to the polyline through the taught keyframes. And
+// DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
+// "localization": how the repeat_node's published pose (repeat_node/pose) compares with the ground
+// truth at the pose's stamp (interpolated), and whether its covariance is honest
+// (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
+// "heading_sigma_rms_deg", "nees_mean", "nees_median", "nees_fraction_above_chi2_95",
+// "unscored_poses"}; null when the bag has no pose. The route's frame (map) is taken as the world's,
+// as for the path errors: the teach phase runs on drift-free odometry.
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <std_msgs/String.h>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+
+#include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/eval/path_deviation.h"
+#include "homography_teach_repeat/sim/planar_world.h"
+#include "homography_teach_repeat/eval/pose_consistency.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+namespace htr = homography_teach_repeat;
+
+namespace {
+
+struct StampedEstimate {
+  double stamp;
+  htr::Pose2D pose;
+  Eigen::Matrix3d covariance;  // of (x, y, yaw)
+};
+
+struct Run {
+  std::vector<htr::Pose2D> truth;
+  std::vector<double> truth_stamps;
+  std::vector<StampedEstimate> estimates;  // repeat_node/pose
+  std::string last_state;
+};
+
+
+Run readRun(const std::string& path) {
+  Run run;
+  rosbag::Bag bag(path, rosbag::bagmode::Read);
+  rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
+                                             "/controller_node/state", "repeat_node/pose", "/repeat_node/pose"}));
+  for (const rosbag::MessageInstance& m : view) {
+    if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
+      // A message that is not a planar pose (NaN, non-unit quaternion) is left out.
+      const auto truth = htr::ros_conversions::toPose2D(odom->pose.pose);
+      if (!truth) continue;
+      run.truth.push_back(*truth);
+      run.truth_stamps.push_back(odom->header.stamp.toSec());
+    } else if (const auto state = m.instantiate<std_msgs::String>()) {
+      run.last_state = state->data;
+    } else if (const auto pose = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
+      const auto estimate = htr::ros_conversions::toPose2D(pose->pose.pose);
+      if (!estimate) continue;
+      run.estimates.push_back({pose->header.stamp.toSec(), *estimate, htr::ros_conversions::planarCovariance(pose->pose)});
+    }
+  }
+  return run;
+}
+
+// The published poses against the ground truth at their stamps (the pose of an image is older than
+// the newest ground truth: comparing with the latest sample would charge the latency to the pose).
+nlohmann::json scoreLocalization(const Run& run) {
+  if (run.estimates.empty()) return nullptr;
+  htr::OdometryBuffer truth(std::numeric_limits<double>::max(), 0.5);
+  for (std::size_t i = 0; i < run.truth.size(); ++i) truth.add(run.truth_stamps[i], run.truth[i]);
+  htr::PoseConsistency consistency;
+  std::size_t unscored = 0;
+  for (const StampedEstimate& e : run.estimates) {
+    const auto at = truth.poseAt(e.stamp);
+    if (!at || !consistency.add(e.pose, e.covariance, *at).isOk()) ++unscored;
+  }
+  const auto summary = consistency.summary();
+  if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
+  const double deg = 180.0 / M_PI;
+  return {{"poses", summary->samples},
+          {"position_err_rms_m", summary->position_error_rms},
+          {"heading_err_rms_deg", summary->heading_error_rms * deg},
+          {"position_sigma_rms_m", summary->position_sigma_rms},
+          {"heading_sigma_rms_deg", summary->heading_sigma_rms * deg},
+          {"nees_mean", summary->nees_mean},
+          {"nees_median", summary->nees_median},
+          {"nees_fraction_above_chi2_95", summary->fraction_above_chi2_95},
+          {"unscored_poses", unscored}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  htr::cli::Arguments args("evaluate_demo_run",
+                            {{"world", ""}, {"route", ""}, {"bag", ""}, {"baseline-bag", ""}, {"laps", "1"},
+                             {"mode", "fast_hd"}, {"out", ""}},
+                            "--world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag] [--laps N] "
+                            "[--mode M] --out DIR");
+  args.parse(argc, argv);
+  for (const char* required : {"world", "route", "bag", "out"}) {
+    if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
+  }
+  try {
+    const auto world = htr::loadPlanarWorld(args.text("world"));
+    if (!world) throw std::runtime_error(world.status().message());
+    const auto route = htr::loadRoute(args.text("route"));
+    if (!route) throw std::runtime_error(route.status().message());
+    std::vector<htr::Pose2D> path;
+    for (const auto& k : route->keyframes) path.push_back(k.pose);
+    const Run run = readRun(args.text("bag"));
+    if (run.truth.empty()) throw std::runtime_error("no ground_truth in " + args.text("bag"));
+    Run baseline;
+    if (!args.text("baseline-bag").empty()) baseline = readRun(args.text("baseline-bag"));
+
+    double max_err = 0.0, sum_err = 0.0;
+    for (const auto& p : run.truth) {
+      const double d = htr::deviationFromPath(path, p).distance;
+      max_err = std::max(max_err, d);
+      sum_err += d;
+    }
+    // Where the run must end (controller_node with start_index 1 and return_to_start): a loop ends
+    // at its first keyframe, where the robot started; an open route at its last.
+    const htr::Pose2D end = htr::isClosedLoop(path, 1.0) ? path.front() : path.back();
+    auto endError = [&](const htr::Pose2D& p) { return std::hypot(p.x - end.x, p.y - end.y); };
+    nlohmann::json metrics;
+    metrics["laps"] = args.integer("laps");
+    metrics["mode"] = args.text("mode");
+    metrics["final_pos_err_m"] = endError(run.truth.back());
+    metrics["final_heading_err_deg"] = std::abs(htr::wrapToPi(run.truth.back().yaw - end.yaw)) * 180.0 / M_PI;
+    metrics["max_pos_err_m"] = max_err;
+    metrics["mean_pos_err_m"] = sum_err / static_cast<double>(run.truth.size());
+    metrics["final_path_err_m"] = htr::deviationFromPath(path, run.truth.back()).distance;
+    metrics["samples"] = run.truth.size();
+    metrics["controller_state"] = run.last_state;
+    const bool finished = run.last_state.rfind("finished", 0) == 0;
+    metrics["finished"] = finished;
+    double travelled = 0.0, route_length = 0.0;
+    for (std::size_t i = 1; i < run.truth.size(); ++i) {
+      travelled += std::hypot(run.truth[i].x - run.truth[i - 1].x, run.truth[i].y - run.truth[i - 1].y);
+    }
+    for (std::size_t i = 1; i < path.size(); ++i) {
+      route_length += std::hypot(path[i].x - path[i - 1].x, path[i].y - path[i - 1].y);
+    }
+    if (htr::isClosedLoop(path, 1.0)) route_length += std::hypot(path.back().x - end.x, path.back().y - end.y);
+    metrics["distance_travelled_m"] = travelled;
+    metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));
+    metrics["localization"] = scoreLocalization(run);
+    if (!baseline.truth.empty()) {
+      const htr::Pose2D& b = baseline.truth.back();
+      metrics["odometry_only_final_pos_err_m"] = endError(b);
+      metrics["odometry_only_final_heading_err_deg"] = std::abs(htr::wrapToPi(b.yaw - end.yaw)) * 180.0 / M_PI;
+      metrics["odometry_only_max_pos_err_m"] = [&] {
+        double m = 0.0;
+        for (const auto& p : baseline.truth) m = std::max(m, htr::deviationFromPath(path, p).distance);
+        return m;
+      }();
+      metrics["odometry_only_controller_state"] = baseline.last_state;
+    } else {
+      metrics["odometry_only_final_pos_err_m"] = nullptr;
+    }
+    const std::filesystem::path out = args.text("out");
+    std::filesystem::create_directories(out);
+    std::ofstream(out / "metrics.json") << metrics.dump(2) << "\n";
+
+    // Top view: 100 px per metre over the walls' bounding box plus a margin.
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const auto& w : world->walls) {
+      for (const auto& p : {w.start, w.end}) {
+        x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+      }
+    }
+    const double scale = 100.0, margin = 0.5;
+    cv::Mat canvas(static_cast<int>((y1 - y0 + 2 * margin) * scale), static_cast<int>((x1 - x0 + 2 * margin) * scale),
+                   CV_8UC3, cv::Scalar(255, 255, 255));
+    auto px = [&](double x, double y) {
+      return cv::Point(static_cast<int>((x - x0 + margin) * scale), static_cast<int>((y1 + margin - y) * scale));
+    };
+    for (const auto& w : world->walls) {
+      cv::line(canvas, px(w.start.x(), w.start.y()), px(w.end.x(), w.end.y()), cv::Scalar(0, 0, 0), 4);
+    }
+    auto polyline = [&](const std::vector<htr::Pose2D>& poses, const cv::Scalar& colour, int thickness) {
+      for (std::size_t i = 1; i < poses.size(); ++i) {
+        cv::line(canvas, px(poses[i - 1].x, poses[i - 1].y), px(poses[i].x, poses[i].y), colour, thickness, cv::LINE_AA);
+      }
+    };
+    polyline(baseline.truth, cv::Scalar(0, 0, 220), 1);
+    polyline(path, cv::Scalar(0, 170, 0), 5);
+    polyline(run.truth, cv::Scalar(220, 60, 0), 1);
+    for (const auto& k : path) cv::circle(canvas, px(k.x, k.y), 4, cv::Scalar(0, 120, 0), cv::FILLED);
+    const int line_height = 22;
+    cv::putText(canvas, "taught path (keyframes)", cv::Point(10, line_height), cv::FONT_HERSHEY_SIMPLEX, 0.55,
+                cv::Scalar(0, 150, 0), 1, cv::LINE_AA);
+    cv::putText(canvas, "repeated (" + args.text("mode") + "), ground truth", cv::Point(10, 2 * line_height),
+                cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(220, 60, 0), 1, cv::LINE_AA);
+    if (!baseline.truth.empty()) {
+      cv::putText(canvas, "odometry only, ground truth", cv::Point(10, 3 * line_height), cv::FONT_HERSHEY_SIMPLEX,
+                  0.55, cv::Scalar(0, 0, 220), 1, cv::LINE_AA);
+    }
+    cv::imwrite((out / "trajectory.png").string(), canvas);
+    std::cout << metrics.dump(2) << "\n";
+    // The short summary.
+    std::printf("\n%s, %d lap(s): the robot ended %.3f m / %.2f deg from the route's end pose (path error mean "
+                "%.3f m, max %.3f m)",
+                args.text("mode").c_str(), static_cast<int>(args.integer("laps")),
+                metrics["final_pos_err_m"].get<double>(), metrics["final_heading_err_deg"].get<double>(),
+                metrics["mean_pos_err_m"].get<double>(), max_err);
+    if (!baseline.truth.empty()) {
+      std::printf("; odometry only: %.3f m", metrics["odometry_only_final_pos_err_m"].get<double>());
+    }
+    std::printf("\n");
+    const auto& localization = metrics["localization"];
+    if (localization.contains("nees_mean")) {
+      std::printf("published pose vs ground truth: %.3f m / %.2f deg rms, claimed %.3f m / %.2f deg; NEES mean "
+                  "%.1f (3 if the covariance is honest), %.0f %% of poses beyond its 95 %% bound (5 %%)\n",
+                  localization["position_err_rms_m"].get<double>(), localization["heading_err_rms_deg"].get<double>(),
+                  localization["position_sigma_rms_m"].get<double>(),
+                  localization["heading_sigma_rms_deg"].get<double>(), localization["nees_mean"].get<double>(),
+                  100.0 * localization["nees_fraction_above_chi2_95"].get<double>());
+    }
+    if (!finished) {
+      std::printf("the run did NOT finish: controller state '%s', %.2f of %.2f m travelled\n",
+                  run.last_state.empty() ? "(none recorded)" : run.last_state.c_str(), travelled,
+                  metrics["route_distance_m"].get<double>());
+      return 3;
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "evaluate_demo_run: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,275 @@
+#include "homography_teach_repeat/fast_hd/planar_pose_refinement.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include <array>
+#include <cmath>
+#include <string>
+
+namespace homography_teach_repeat {
+namespace {
+
+using Matrix23d = Eigen::Matrix<double, 2, 3>;
+using Matrix44d = Eigen::Matrix4d;
+
+// dπ/dq for π(q) = (q1/q3, q2/q3).
+Matrix23d projectionJacobian(const Eigen::Vector3d& q) {
+  Matrix23d j;
+  const double w = 1.0 / q.z();
+  j << w, 0.0, -q.x() * w * w, 0.0, w, -q.y() * w * w;
+  return j;
+}
+
+// The model homography and its derivatives with respect to (Cx, Cz, θ12) for one plane.
+struct ModelHomography {
+  Eigen::Matrix3d H;
+  Eigen::Matrix3d H_inverse;
+  std::array<Eigen::Matrix3d, 4> dH;  // (Cx, Cz, θ12, Cy)
+};
+
+// The estimated state: the planar pose plus the camera's height offset Cy (a nuisance parameter,
+// fixed at 0 unless PoseRefinementOptions::estimate_height_offset).
+struct State {
+  PlanarPose pose;
+  double height = 0.0;
+  Eigen::Vector3d centre() const { return Eigen::Vector3d(pose.x, height, pose.z); }
+};
+
+bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlane& plane,
+                ModelHomography* model) {
+  const PlanarPose& pose = state.pose;
+  const Eigen::Matrix3d K = camera.K();
+  const Eigen::Matrix3d K_inverse = camera.Kinverse();
+  const Eigen::Matrix3d R21 = pose.rotation21();
+  const Eigen::RowVector3d n_over_d = plane.normal.transpose() / plane.distance;
+  const Eigen::Matrix3d plane_term = Eigen::Matrix3d::Identity() - state.centre() * n_over_d;
+  model->H = K * R21 * plane_term * K_inverse;
+  // det H ∝ det(I − C nᵀ/d) = 1 − nᵀC/d = (distance of camera 2 to the plane)/d.
+  const double relative_distance = 1.0 - n_over_d.dot(state.centre());
+  if (!(std::abs(relative_distance) > 1e-9)) return false;
+  model->H_inverse = model->H.inverse();
+  model->dH[0] = -K * R21 * Eigen::Vector3d::UnitX() * n_over_d * K_inverse;
+  model->dH[1] = -K * R21 * Eigen::Vector3d::UnitZ() * n_over_d * K_inverse;
+  // R21 = Ry(θ21), θ21 = −θ12: dR21/dθ12 = −Ry'(θ21).
+  const double theta21 = -pose.theta;
+  Eigen::Matrix3d d_rotation;
+  d_rotation << -std::sin(theta21), 0.0, -std::cos(theta21), 0.0, 0.0, 0.0, std::cos(theta21), 0.0,
+      -std::sin(theta21);
+  model->dH[2] = -K * d_rotation * plane_term * K_inverse;
+  model->dH[3] = -K * R21 * Eigen::Vector3d::UnitY() * n_over_d * K_inverse;
+  return model->H.allFinite() && model->H_inverse.allFinite();
+}
+
+struct MatchLinearization {
+  Eigen::Vector4d residual;
+  Matrix44d jacobian;                  // ∂r/∂(Cx, Cz, θ12, Cy)
+  Eigen::Matrix4d measurement_jacobian;  // ∂r/∂(u, v, u', v')
+};
+
+// The algebraic DLT residual ε = A_i h of one match for a homography G (MATH.md §3.1), linear in
+// G; used with the model H and with its derivatives dH_k.
+Eigen::Vector2d algebraicResidual(const Eigen::Matrix3d& G, const Eigen::Vector3d& p,
+                                  const Eigen::Vector2d& current) {
+  const double g3p = G.row(2).dot(p);
+  return Eigen::Vector2d(-G.row(1).dot(p) + current.y() * g3p, G.row(0).dot(p) - current.x() * g3p);
+}
+
+// Sampson: r = W ε with W = (B Bᵀ)^(-1/2) (Cholesky), B = ∂ε/∂(u, v, u', v') (MATH.md §3.4):
+// the first-order geometric distance in the joint image space, the ML cost for iid pixel noise
+// in both images. W is frozen within a Gauss-Newton step (its derivative is second order).
+bool linearizeSampson(const ModelHomography& model, const PointMatch& match,
+                      MatchLinearization* out) {
+  const Eigen::Vector3d p = match.reference.homogeneous();
+  const Eigen::Matrix3d& H = model.H;
+  const double h3p = H.row(2).dot(p);
+  Eigen::Matrix<double, 2, 4> b;
+  b << -H(1, 0) + match.current.y() * H(2, 0), -H(1, 1) + match.current.y() * H(2, 1), 0.0, h3p,
+      H(0, 0) - match.current.x() * H(2, 0), H(0, 1) - match.current.x() * H(2, 1), -h3p, 0.0;
+  const Eigen::LLT<Eigen::Matrix2d> llt(b * b.transpose());
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix2d W = llt.matrixL().solve(Eigen::Matrix2d::Identity());
+  out->residual.setZero();
+  out->jacobian.setZero();
+  out->measurement_jacobian.setZero();
+  out->residual.head<2>() = W * algebraicResidual(H, p, match.current);
+  // J = ∂r/∂p = W ∂ε/∂p; ε is linear in H, so ∂ε/∂p_k = ε(dH_k).
+  for (int k = 0; k < 4; ++k) {
+    out->jacobian.block<2, 1>(0, k) = W * algebraicResidual(model.dH[k], p, match.current);
+  }
+  out->measurement_jacobian.topRows<2>() = W * b;
+  return out->residual.allFinite() && out->jacobian.allFinite();
+}
+
+bool linearize(const ModelHomography& model, const PointMatch& match, MatchLinearization* out) {
+  const Eigen::Vector3d p = match.reference.homogeneous();
+  const Eigen::Vector3d p2 = match.current.homogeneous();
+  const Eigen::Vector3d q = model.H * p;
+  const Eigen::Vector3d q_back = model.H_inverse * p2;
+  if (!(std::abs(q.z()) > 1e-12) || !(std::abs(q_back.z()) > 1e-12)) return false;
+  out->residual.head<2>() = match.current - q.hnormalized();
+  out->residual.tail<2>() = match.reference - q_back.hnormalized();
+  const Matrix23d dpi = projectionJacobian(q);
+  const Matrix23d dpi_back = projectionJacobian(q_back);
+  for (int k = 0; k < 4; ++k) {
+    out->jacobian.block<2, 1>(0, k) = -dpi * (model.dH[k] * p);
+    // d(H⁻¹) = −H⁻¹ dH H⁻¹.
+    out->jacobian.block<2, 1>(2, k) = dpi_back * (model.H_inverse * (model.dH[k] * q_back));
+  }
+  out->measurement_jacobian.setZero();
+  out->measurement_jacobian.block<2, 2>(0, 0) = -dpi * model.H.leftCols<2>();
+  out->measurement_jacobian.block<2, 2>(0, 2).setIdentity();
+  out->measurement_jacobian.block<2, 2>(2, 0).setIdentity();
+  out->measurement_jacobian.block<2, 2>(2, 2) = -dpi_back * model.H_inverse.leftCols<2>();
+  return out->residual.allFinite() && out->jacobian.allFinite();
+}
+
+// Accumulates JᵀJ, Jᵀr and the cost at a pose; false when the model is degenerate there.
+struct NormalEquations {
+  Eigen::Matrix4d JtJ = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d Jtr = Eigen::Vector4d::Zero();
+  Eigen::Matrix4d measurement_information = Eigen::Matrix4d::Zero();  // Σ Jᵢᵀ Rᵢ Rᵢᵀ Jᵢ
+  double cost = 0.0;
+};
+
+bool accumulate(const PinholeCamera& camera, const State& state,
+                const std::vector<PlaneMatches>& planes, RefinementCost cost,
+                bool estimate_height, bool with_covariance, NormalEquations* eq) {
+  *eq = NormalEquations();
+  MatchLinearization lin;
+  for (const auto& group : planes) {
+    ModelHomography model;
+    if (!buildModel(camera, state, group.plane, &model)) return false;
+    for (const auto& match : group.matches) {
+      const bool ok = cost == RefinementCost::kSampson ? linearizeSampson(model, match, &lin)
+                                                       : linearize(model, match, &lin);
+      if (!ok) return false;
+      if (!estimate_height) lin.jacobian.col(3).setZero();
+      eq->JtJ.noalias() += lin.jacobian.transpose() * lin.jacobian;
+      eq->Jtr.noalias() += lin.jacobian.transpose() * lin.residual;
+      eq->cost += lin.residual.squaredNorm();
+      if (with_covariance) {
+        const Matrix44d weighted = lin.measurement_jacobian.transpose() * lin.jacobian;
+        eq->measurement_information.noalias() += weighted.transpose() * weighted;
+      }
+    }
+  }
+  // A fixed height: an identity row keeps the 4x4 system regular and its step zero.
+  if (!estimate_height) eq->JtJ(3, 3) = 1.0;
+  return std::isfinite(eq->cost);
+}
+
+}  // namespace
+
+Eigen::Matrix3d poseHomography(const PinholeCamera& camera, const PlanarPose& pose,
+                               const ScenePlane& plane) {
+  return camera.K() * pose.rotation21() *
+         (Eigen::Matrix3d::Identity() - pose.centre() * plane.normal.transpose() / plane.distance) *
+         camera.Kinverse();
+}
+
+Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
+                                             const std::vector<PlaneMatches>& planes,
+                                             const PinholeCamera& camera,
+                                             const PoseRefinementOptions& options) {
+  if (!initial.isFinite()) {
+    return Status(StatusCode::kInvalidInput, "initial pose for the refinement is not finite");
+  }
+  if (options.max_iterations < 1 || !std::isfinite(options.sigma_px) || options.sigma_px < 0.0 ||
+      !(options.convergence_step > 0.0)) {
+    return Status(StatusCode::kInvalidInput,
+                  "refinement options: max_iterations >= 1, sigma_px >= 0, convergence_step > 0");
+  }
+  std::size_t total = 0;
+  for (const auto& group : planes) {
+    const Status plane_status = group.plane.validate();
+    if (plane_status.code() == StatusCode::kInvalidInput) return plane_status;
+    for (const auto& m : group.matches) {
+      if (!m.reference.allFinite() || !m.current.allFinite()) {
+        return Status(StatusCode::kInvalidInput, "a match for the refinement is not finite");
+      }
+    }
+    total += group.matches.size();
+  }
+  if (total < 2) {
+    return Status(StatusCode::kTooFewPoints,
+                  "pose refinement needs at least 2 matches, got " + std::to_string(total));
+  }
+
+  State state;
+  state.pose = initial;
+  const bool estimate_height = options.estimate_height_offset;
+  NormalEquations eq;
+  if (!accumulate(camera, state, planes, options.cost, estimate_height, false, &eq)) {
+    return Status(StatusCode::kDegenerate, "initial pose puts the camera on a plane");
+  }
+  double lambda = 1e-6;
+  int iteration = 0;
+  for (; iteration < options.max_iterations; ++iteration) {
+    if (!(eq.JtJ.diagonal().head<3>().maxCoeff() > 0.0)) {
+      return Status(StatusCode::kDegenerate, "pose refinement: zero Jacobian");
+    }
+    bool improved = false;
+    Eigen::Vector4d step = Eigen::Vector4d::Zero();
+    for (int attempt = 0; attempt < 20 && !improved; ++attempt) {
+      Eigen::Matrix4d damped = eq.JtJ;
+      damped.diagonal() += lambda * eq.JtJ.diagonal();
+      const Eigen::LDLT<Eigen::Matrix4d> ldlt(damped);
+      if (ldlt.info() != Eigen::Success) {
+        return Status(StatusCode::kDegenerate, "pose refinement: singular normal equations");
+      }
+      // The Gauss-Newton step solves JᵀJ δ = −Jᵀr with J = ∂r/∂p.
+      step = -ldlt.solve(eq.Jtr);
+      State candidate;
+      candidate.pose = PlanarPose(state.pose.x + step(0), state.pose.z + step(1),
+                                  wrapToPi(state.pose.theta + step(2)));
+      candidate.height = state.height + step(3);
+      NormalEquations candidate_eq;
+      if (accumulate(camera, candidate, planes, options.cost, estimate_height, false,
+                     &candidate_eq) &&
+          candidate_eq.cost <= eq.cost) {
+        state = candidate;
+        eq = candidate_eq;
+        lambda = std::max(lambda * 0.1, 1e-12);
+        improved = true;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    const bool converged = Eigen::Vector3d(step(0), step(1), step(3)).norm() <
+                               options.convergence_step &&
+                           std::abs(step(2)) < options.convergence_step;
+    if (!improved || converged) {
+      ++iteration;
+      break;
+    }
+  }
+
+  if (!accumulate(camera, state, planes, options.cost, estimate_height, true, &eq)) {
+    return Status(StatusCode::kDegenerate, "refined pose puts the camera on a plane");
+  }
+  const Eigen::FullPivLU<Eigen::Matrix4d> lu(eq.JtJ);
+  if (!lu.isInvertible() || lu.rcond() < 1e-14) {
+    return Status(StatusCode::kDegenerate,
+                  "pose refinement: the matches do not constrain all of (x, z, θ)");
+  }
+  const Eigen::Matrix4d JtJ_inverse = lu.inverse();
+  const Eigen::Matrix4d covariance = options.sigma_px * options.sigma_px * JtJ_inverse *
+                                     eq.measurement_information * JtJ_inverse;
+  RefinedPlanarPose result;
+  result.pose = state.pose;
+  // The marginal covariance of (Cx, Cz, θ12): the height offset is a nuisance parameter.
+  result.covariance = covariance.topLeftCorner<3, 3>();
+  result.covariance = 0.5 * (result.covariance + result.covariance.transpose());
+  result.height_offset = state.height;
+  const double residuals_per_match = options.cost == RefinementCost::kSampson ? 1.0 : 2.0;
+  result.rms_transfer_error_px =
+      std::sqrt(eq.cost / (residuals_per_match * static_cast<double>(total)));
+  result.iterations = iteration;
+  if (!result.pose.isFinite() || !result.covariance.allFinite()) {
+    return Status(StatusCode::kNotFinite, "pose refinement produced a non-finite result");
+  }
+  return result;
+}
+
+}  // namespace homography_teach_repeat

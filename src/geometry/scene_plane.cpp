@@ -1,0 +1,37 @@
+#include "homography_teach_repeat/geometry/scene_plane.h"
+
+#include <cmath>
+
+namespace homography_teach_repeat {
+namespace {
+// nx² + nz² below this is a horizontal plane (floor/ceiling).
+constexpr double kHorizontalPlaneTolerance = 1e-6;
+}  // namespace
+
+Status ScenePlane::validate() const {
+  if (!normal.allFinite() || !std::isfinite(distance)) {
+    return Status(StatusCode::kInvalidInput, "plane normal or distance is not finite");
+  }
+  if (std::abs(normal.norm() - 1.0) > 1e-6) {
+    return Status(StatusCode::kInvalidInput, "plane normal is not a unit vector");
+  }
+  if (!(distance > 0.0)) {
+    return Status(StatusCode::kInvalidInput, "plane distance must be > 0");
+  }
+  if (normal.x() * normal.x() + normal.z() * normal.z() < kHorizontalPlaneTolerance) {
+    return Status(StatusCode::kDegenerate,
+                  "horizontal plane (floor/ceiling, nx = nz = 0): Fast-HD's Π is singular");
+  }
+  return Status::ok();
+}
+
+Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const PlanarPose& pose,
+                                       const ScenePlane& plane) {
+  const Eigen::Matrix3d R21 = pose.rotation21();
+  const Eigen::Vector3d t21 = R21 * pose.centre();
+  const Eigen::Matrix3d H =
+      camera.K() * (R21 - t21 * plane.normal.transpose() / plane.distance) * camera.Kinverse();
+  return H / H.norm();
+}
+
+}  // namespace homography_teach_repeat

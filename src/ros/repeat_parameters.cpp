@@ -1,0 +1,67 @@
+#include "homography_teach_repeat/ros/repeat_parameters.h"
+
+#include <string>
+
+#include "homography_teach_repeat/ros/parameters.h"
+
+namespace homography_teach_repeat {
+
+// config/repeat_node.yaml documents every parameter.
+RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
+  RepeatPipelineOptions o;
+  readParameters(nh, [&] {
+    RepeatOptions& r = o.localization;
+    r.mode = repeatModeFromString(readParameter<std::string>(nh, "mode", "fast_hd"));
+    r.max_features = readParameter(nh, "max_features", r.max_features);
+    r.pose.pixel_sigma_px = readParameter(nh, "pixel_sigma", r.pose.pixel_sigma_px);
+    r.pose.refine = readParameter(nh, "refine", r.pose.refine);
+    r.min_inliers = readParameter(nh, "min_inliers", r.min_inliers);
+    r.neighbour_search = readParameter(nh, "neighbour_search", r.neighbour_search);
+    r.max_degraded_frames = readParameter(nh, "max_degraded_frames", r.max_degraded_frames);
+    r.max_tracked_frames = readParameter(nh, "max_tracked_frames", r.max_tracked_frames);
+    r.tracking_tolerance_px = readParameter(nh, "tracking_tolerance", r.tracking_tolerance_px);
+    r.max_plane_residual_px = readParameter(nh, "max_plane_residual", r.max_plane_residual_px);
+    r.closed_route_gap = readParameter(nh, "closed_route_gap", r.closed_route_gap);
+    r.mu_skip_turn_keyframes = readParameter(nh, "mu_skip_turn_keyframes", r.mu_skip_turn_keyframes);
+    r.mu_max_reference_angle = readParameter(nh, "mu_max_reference_angle", r.mu_max_reference_angle);
+    HeadingAidedOdometryOptions& m = o.mu_filter;
+    m.initial_position_variance = readParameter(nh, "mu_initial_position_variance", m.initial_position_variance);
+    m.position_variance_per_metre = readParameter(nh, "mu_position_variance_per_metre", m.position_variance_per_metre);
+    m.heading_fix_variance = readParameter(nh, "mu_heading_fix_variance", m.heading_fix_variance);
+    m.heading_variance_per_metre = readParameter(nh, "mu_heading_variance_per_metre", m.heading_variance_per_metre);
+    m.heading_variance_per_radian = readParameter(nh, "mu_heading_variance_per_radian", m.heading_variance_per_radian);
+    m.min_mu_variance = readParameter(nh, "mu_variance", m.min_mu_variance);
+    m.innovation_gate = readParameter(nh, "mu_innovation_gate", m.innovation_gate);
+    m.refused_before_reset = readParameter(nh, "mu_gate_switch_after", m.refused_before_reset);
+    m.max_mu_step_px = readParameter(nh, "mu_max_step", m.max_mu_step_px);
+    m.max_confirmation_distance = readParameter(nh, "mu_max_confirmation_distance", m.max_confirmation_distance);
+    if (readParameter(nh, "odometry_gate", true)) {
+      OdometryGateOptions& g = o.odometry_gate.emplace();
+      g.position_tolerance = readParameter(nh, "gate_position_tolerance", g.position_tolerance);
+      g.heading_tolerance = readParameter(nh, "gate_heading_tolerance", g.heading_tolerance);
+      g.drift_fraction = readParameter(nh, "gate_drift_fraction", g.drift_fraction);
+      g.heading_drift_per_metre = readParameter(nh, "gate_heading_drift_per_metre", g.heading_drift_per_metre);
+      g.rotation_drift_fraction = readParameter(nh, "gate_rotation_drift_fraction", g.rotation_drift_fraction);
+      g.switch_after = readParameter(nh, "gate_switch_after", g.switch_after);
+      g.window = readParameter(nh, "gate_window", g.window);
+    } else {
+      o.odometry_gate.reset();
+    }
+    o.start_keyframe = readParameter(nh, "start_keyframe", o.start_keyframe);
+    o.mu_max_unaided_distance = readParameter(nh, "mu_max_unaided_distance", o.mu_max_unaided_distance);
+    o.validate();
+  });
+  return o;
+}
+
+// The run-time tunables of RepeatOptions as dynamic_reconfigure reports them.
+void writeRepeatTunables(const RepeatOptions& options, RepeatConfig& config) {
+  config.mode = toString(options.mode);
+  config.pixel_sigma = options.pose.pixel_sigma_px;
+  config.refine = options.pose.refine;
+  config.min_inliers = options.min_inliers;
+  config.neighbour_search = options.neighbour_search;
+  config.max_degraded_frames = options.max_degraded_frames;
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,82 @@
+#include "homography_teach_repeat/sim/differential_drive.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace homography_teach_repeat {
+namespace {
+
+void requireFinite(double value, const char* name) {
+  if (!std::isfinite(value)) throw std::invalid_argument(std::string("odometry model: ") + name + " must be finite");
+}
+
+}  // namespace
+
+void OdometryErrorModel::validate() const {
+  requireFinite(scale_error, "scale_error");
+  requireFinite(heading_bias_per_metre, "heading_bias_per_metre");
+  requireFinite(distance_noise, "distance_noise");
+  requireFinite(heading_noise, "heading_noise");
+  if (scale_error <= -1.0) throw std::invalid_argument("odometry model: scale_error must be > -1");
+  if (distance_noise < 0.0 || heading_noise < 0.0) throw std::invalid_argument("odometry model: noise must be >= 0");
+}
+
+void DriveLimits::validate() const {
+  if (!std::isfinite(max_linear_velocity) || !(max_linear_velocity > 0.0)) {
+    throw std::invalid_argument("drive limits: max_linear_velocity must be > 0");
+  }
+  if (!std::isfinite(max_angular_velocity) || !(max_angular_velocity > 0.0)) {
+    throw std::invalid_argument("drive limits: max_angular_velocity must be > 0");
+  }
+}
+
+Pose2D integrateArc(const Pose2D& pose, double v, double w, double dt) {
+  const double dtheta = w * dt;
+  if (std::abs(dtheta) < 1e-9) {
+    return Pose2D(pose.x + v * dt * std::cos(pose.yaw + dtheta / 2), pose.y + v * dt * std::sin(pose.yaw + dtheta / 2),
+                  wrapToPi(pose.yaw + dtheta));
+  }
+  const double radius = v / w;
+  return Pose2D(pose.x + radius * (std::sin(pose.yaw + dtheta) - std::sin(pose.yaw)),
+                pose.y - radius * (std::cos(pose.yaw + dtheta) - std::cos(pose.yaw)), wrapToPi(pose.yaw + dtheta));
+}
+
+DifferentialDriveSim::DifferentialDriveSim(const Pose2D& start, const OdometryErrorModel& odometry_errors,
+                                           const DriveLimits& limits, std::uint64_t seed)
+    : errors_(odometry_errors), limits_(limits), rng_(seed), truth_(start), odometry_(start) {
+  errors_.validate();
+  limits_.validate();
+  if (!std::isfinite(start.x) || !std::isfinite(start.y) || !std::isfinite(start.yaw)) {
+    throw std::invalid_argument("differential drive: non-finite start pose");
+  }
+}
+
+std::pair<double, double> DifferentialDriveSim::step(double v, double w, double dt) {
+  if (!std::isfinite(v)) v = 0.0;
+  if (!std::isfinite(w)) w = 0.0;
+  if (!(dt > 0.0) || !std::isfinite(dt)) return {0.0, 0.0};
+  v = std::clamp(v, -limits_.max_linear_velocity, limits_.max_linear_velocity);
+  w = std::clamp(w, -limits_.max_angular_velocity, limits_.max_angular_velocity);
+  truth_ = integrateArc(truth_, v, w, dt);
+  const double distance = std::abs(v * dt);
+  distance_ += distance;
+  // Odometry: the measured arc (scaled distance, biased and noisy heading change).
+  double measured_distance = (1.0 + errors_.scale_error) * v * dt;
+  double measured_turn = w * dt + errors_.heading_bias_per_metre * distance;
+  if (distance > 0.0) {
+    measured_distance += rng_.gaussian(errors_.distance_noise * std::sqrt(distance));
+    measured_turn += rng_.gaussian(errors_.heading_noise * std::sqrt(distance));
+  }
+  odometry_ = integrateArc(odometry_, measured_distance / dt, measured_turn / dt, dt);
+  return {v, w};
+}
+
+void DifferentialDriveSim::reset(const Pose2D& truth, const Pose2D& odometry) {
+  truth_ = truth;
+  odometry_ = odometry;
+  distance_ = 0.0;
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,242 @@
+#include "homography_teach_repeat/sim/ros/planar_world_sim.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/LaserScan.h>
+
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/ros/parameters.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, const std::string& frame,
+                                   const std::string& child, double v, double w) {
+  nav_msgs::Odometry m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame;
+  m.child_frame_id = child;
+  m.pose.pose.position.x = pose.x;
+  m.pose.pose.position.y = pose.y;
+  m.pose.pose.orientation = ros_conversions::yawQuaternion(pose.yaw);
+  m.twist.twist.linear.x = v;
+  m.twist.twist.angular.z = w;
+  return m;
+}
+
+geometry_msgs::TransformStamped transformMessage(const Pose2D& pose, double z, const ros::Time& stamp,
+                                                 const std::string& parent, const std::string& child) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = pose.x;
+  t.transform.translation.y = pose.y;
+  t.transform.translation.z = z;
+  t.transform.rotation = ros_conversions::yawQuaternion(pose.yaw);
+  return t;
+}
+
+void requirePositive(const ros::NodeHandle& nh, const std::string& name, double value) {
+  if (!std::isfinite(value) || !(value > 0.0)) {
+    throw std::runtime_error("parameter '" + nh.resolveName(name) + "' must be > 0");
+  }
+}
+
+}  // namespace
+
+PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
+    : nh_(nh), private_nh_(private_nh), image_transport_(nh) {
+  const auto& p = private_nh;
+  const std::string world_file = readRequiredParameter<std::string>(p, "world_file");
+  auto world = loadPlanarWorld(world_file);
+  if (!world) throw std::runtime_error(world.status().message());
+  world_ = std::move(*world);
+
+  physics_rate_ = readParameter(p, "physics_rate", physics_rate_);
+  camera_rate_ = readParameter(p, "camera_rate", camera_rate_);
+  scan_rate_ = readParameter(p, "scan_rate", scan_rate_);
+  real_time_factor_ = readParameter(p, "real_time_factor", real_time_factor_);
+  cmd_vel_timeout_ = readParameter(p, "cmd_vel_timeout", cmd_vel_timeout_);
+  camera_mount_x_ = readParameter(p, "camera_mount_x", camera_mount_x_);
+  start_time_ = readParameter(p, "start_time", start_time_);
+  for (const auto& [name, value] : {std::pair<const char*, double>{"physics_rate", physics_rate_},
+                                    {"camera_rate", camera_rate_},
+                                    {"scan_rate", scan_rate_},
+                                    {"real_time_factor", real_time_factor_},
+                                    {"cmd_vel_timeout", cmd_vel_timeout_},
+                                    {"start_time", start_time_}}) {
+    requirePositive(p, name, value);
+  }
+  if (camera_rate_ > physics_rate_ || scan_rate_ > physics_rate_) {
+    throw std::runtime_error("parameters camera_rate and scan_rate must not exceed physics_rate");
+  }
+  odom_frame_ = readParameter<std::string>(p, "odom_frame", "odom");
+  base_frame_ = readParameter<std::string>(p, "base_frame", "base_link");
+  camera_frame_ = readParameter<std::string>(p, "camera_frame", "camera_optical_frame");
+  world_frame_ = readParameter<std::string>(p, "world_frame", "world");
+  ground_truth_prefix_ = readParameter<std::string>(p, "ground_truth_prefix", "ground_truth");
+
+  CameraCalibration calibration;
+  calibration.width = readParameter(p, "image_width", 640);
+  calibration.height = readParameter(p, "image_height", 480);
+  calibration.fx = readParameter(p, "fx", 500.0);
+  calibration.fy = readParameter(p, "fy", 500.0);
+  calibration.cx = readParameter(p, "cx", (calibration.width - 1) / 2.0);
+  calibration.cy = readParameter(p, "cy", (calibration.height - 1) / 2.0);
+  RenderOptions render;
+  render.camera_height = readParameter(p, "camera_height", render.camera_height);
+  render.noise_sigma = readParameter(p, "image_noise_sigma", render.noise_sigma);
+  render.blur_sigma = readParameter(p, "image_blur_sigma", render.blur_sigma);
+  camera_height_ = render.camera_height;
+
+  OdometryErrorModel errors;
+  errors.scale_error = readParameter(p, "odometry_scale_error", errors.scale_error);
+  errors.heading_bias_per_metre = readParameter(p, "odometry_heading_bias_per_metre", errors.heading_bias_per_metre);
+  errors.distance_noise = readParameter(p, "odometry_distance_noise", errors.distance_noise);
+  errors.heading_noise = readParameter(p, "odometry_heading_noise", errors.heading_noise);
+  DriveLimits limits;
+  limits.max_linear_velocity = readParameter(p, "max_linear_velocity", limits.max_linear_velocity);
+  limits.max_angular_velocity = readParameter(p, "max_angular_velocity", limits.max_angular_velocity);
+  const std::vector<double> start = readParameter<std::vector<double>>(p, "start_pose", {0.0, 0.0, 0.0});
+  if (start.size() != 3) throw std::runtime_error("parameter '" + p.resolveName("start_pose") + "' must be [x, y, yaw]");
+  scan_count_ = readParameter(p, "scan_count", 181);
+  scan_angle_min_ = readParameter(p, "scan_angle_min", scan_angle_min_);
+  scan_angle_max_ = readParameter(p, "scan_angle_max", scan_angle_max_);
+  scan_range_max_ = readParameter(p, "scan_range_max", scan_range_max_);
+  rng_ = cv::RNG(static_cast<std::uint64_t>(readParameter(p, "seed", 1)));
+  readParameters(p, [&] {
+    renderer_.emplace(PinholeCamera(calibration), render);
+    robot_.emplace(Pose2D(start[0], start[1], start[2]), errors, limits,
+                   static_cast<std::uint64_t>(readParameter(p, "seed", 1)) + 1);
+  });
+  if (scan_count_ < 0 || !(scan_range_max_ > 0.0) || !(scan_angle_max_ >= scan_angle_min_)) {
+    throw std::runtime_error("invalid scan parameters in " + p.getNamespace());
+  }
+
+  command_subscriber_ = nh_.subscribe("cmd_vel", 1, &PlanarWorldSim::onCommand, this);
+  camera_publisher_ = image_transport_.advertiseCamera("camera/image_raw", 2);
+  odometry_publisher_ = nh_.advertise<nav_msgs::Odometry>("odom", 20);
+  ground_truth_publisher_ = nh_.advertise<nav_msgs::Odometry>("ground_truth", 20);
+  if (scan_count_ > 0) scan_publisher_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 2);
+  clock_publisher_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+
+  // The camera mount: optical z forward (base x), optical x right (-base y), optical y down.
+  geometry_msgs::TransformStamped mount;
+  mount.header.stamp = ros::Time(start_time_);
+  mount.header.frame_id = base_frame_;
+  mount.child_frame_id = camera_frame_;
+  mount.transform.translation.x = camera_mount_x_;
+  mount.transform.translation.z = camera_height_;
+  tf2::Quaternion q;
+  tf2::Matrix3x3(0, 0, 1, -1, 0, 0, 0, -1, 0).getRotation(q);
+  mount.transform.rotation.x = q.x();
+  mount.transform.rotation.y = q.y();
+  mount.transform.rotation.z = q.z();
+  mount.transform.rotation.w = q.w();
+  static_broadcaster_.sendTransform(mount);
+  ROS_INFO("planar_world_sim: world '%s' (%zu walls), camera %dx%d f=%.0f at %.0f Hz, %.1fx real time",
+           world_file.c_str(), world_.walls.size(), calibration.width, calibration.height, calibration.fx,
+           camera_rate_, real_time_factor_);
+}
+
+PlanarWorldSim::~PlanarWorldSim() = default;
+
+void PlanarWorldSim::onCommand(const geometry_msgs::TwistConstPtr& command) {
+  std::lock_guard<std::mutex> lock(command_mutex_);
+  command_v_ = command->linear.x;
+  command_w_ = command->angular.z;
+  command_stamp_ = sim_seconds_.load();  // simulated time, whatever use_sim_time says
+}
+
+void PlanarWorldSim::run() {
+  const double dt = 1.0 / physics_rate_;
+  const int camera_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / camera_rate_)));
+  const int scan_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / scan_rate_)));
+  const int odometry_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / 50.0)));
+  double sim_seconds = start_time_;
+  sim_seconds_.store(sim_seconds);
+  long step = 0;
+  ros::WallTime wall_start = ros::WallTime::now();
+  while (ros::ok()) {
+    const ros::Time stamp(sim_seconds);
+    rosgraph_msgs::Clock clock;
+    clock.clock = stamp;
+    clock_publisher_.publish(clock);
+    if (step % odometry_every == 0) publishState(stamp);
+    if (step % camera_every == 0) publishCamera(stamp, sim_seconds);
+    if (scan_count_ > 0 && step % scan_every == 0) publishScan(stamp);
+    double v = 0.0, w = 0.0;
+    {
+      std::lock_guard<std::mutex> lock(command_mutex_);
+      if (command_stamp_ > 0.0 && sim_seconds - command_stamp_ <= cmd_vel_timeout_) {
+        v = command_v_;
+        w = command_w_;
+      }
+    }
+    robot_->step(v, w, dt);
+    sim_seconds += dt;
+    sim_seconds_.store(sim_seconds);
+    ++step;
+    // Pace: sim time runs real_time_factor times faster than wall time.
+    const ros::WallTime due = wall_start + ros::WallDuration((sim_seconds - start_time_) / real_time_factor_);
+    const ros::WallDuration wait = due - ros::WallTime::now();
+    if (wait.toSec() > 0.0) wait.sleep();
+  }
+}
+
+void PlanarWorldSim::publishState(const ros::Time& stamp) {
+  const Pose2D& odom = robot_->odometry();
+  const Pose2D& truth = robot_->truth();
+  odometry_publisher_.publish(odometryMessage(odom, stamp, odom_frame_, base_frame_, 0.0, 0.0));
+  ground_truth_publisher_.publish(odometryMessage(truth, stamp, world_frame_, base_frame_, 0.0, 0.0));
+  tf_broadcaster_.sendTransform(transformMessage(odom, 0.0, stamp, odom_frame_, base_frame_));
+  tf_broadcaster_.sendTransform(
+      transformMessage(truth, 0.0, stamp, world_frame_, ground_truth_prefix_ + "/" + base_frame_));
+}
+
+void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
+  if (camera_publisher_.getNumSubscribers() == 0) return;
+  const Pose2D camera_pose = robot_->truth().compose(Pose2D(camera_mount_x_, 0.0, 0.0));
+  const cv::Mat image = renderer_->render(world_, camera_pose, world_.illumination.gainAt(sim_seconds), rng_);
+  std_msgs::Header header;
+  header.stamp = stamp;
+  header.frame_id = camera_frame_;
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  const PinholeCamera& camera = renderer_->camera();
+  info.width = static_cast<uint32_t>(camera.width());
+  info.height = static_cast<uint32_t>(camera.height());
+  info.distortion_model = "plumb_bob";
+  info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+  info.K = {camera.fx(), 0.0, camera.cx(), 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 1.0};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {camera.fx(), 0.0, camera.cx(), 0.0, 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
+  camera_publisher_.publish(*cv_bridge::CvImage(header, "bgr8", image).toImageMsg(), info);
+}
+
+void PlanarWorldSim::publishScan(const ros::Time& stamp) {
+  sensor_msgs::LaserScan scan;
+  scan.header.stamp = stamp;
+  scan.header.frame_id = base_frame_;
+  scan.angle_min = static_cast<float>(scan_angle_min_);
+  scan.angle_max = static_cast<float>(scan_angle_max_);
+  scan.angle_increment =
+      scan_count_ > 1 ? static_cast<float>((scan_angle_max_ - scan_angle_min_) / (scan_count_ - 1)) : 0.0f;
+  scan.range_min = 0.05f;
+  scan.range_max = static_cast<float>(scan_range_max_);
+  scan.ranges = castScan(world_, robot_->truth(), scan_angle_min_, scan_angle_max_, scan_count_, scan_range_max_);
+  scan_publisher_.publish(scan);
+}
+
+}  // namespace homography_teach_repeat

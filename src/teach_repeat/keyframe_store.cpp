@@ -1,0 +1,104 @@
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/homography/homography.h"
+
+namespace homography_teach_repeat {
+namespace {
+constexpr double kTurnKeyframeAngle = 0.1;  // [rad]
+constexpr double kTurnKeyframeRate = 1.0;   // [rad/m]
+}  // namespace
+
+bool turnedBetween(const Pose2D& a, const Pose2D& b) {
+  return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
+}
+
+Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOptions& options) {
+  try {
+    options.validate();
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+  if (route.keyframes.empty()) {
+    return Status(StatusCode::kInvalidInput, "route '" + route.directory + "' has no keyframe");
+  }
+  KeyframeStore store;
+  for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
+    KeyframeReference reference;
+    reference.base_pose = route.keyframes[k].pose;
+    reference.plane = route.keyframes[k].plane;
+    if (options.mode == RepeatMode::kMu) {
+      auto lines = loadKeyframeLines(route, k);
+      if (!lines) return lines.status();
+      reference.lines = std::move(*lines);
+    } else {
+      if (!reference.plane) {
+        return Status(StatusCode::kInvalidInput,
+                      "keyframe " + std::to_string(k) + " of '" + route.directory + "' has no plane: " +
+                          toString(options.mode) + " mode needs the plane estimation of the teach phase (or use mu)");
+      }
+      auto features = loadKeyframeFeatures(route, k);
+      if (!features) return features.status();
+      reference.features = std::move(*features);
+    }
+    if (k > 0) {
+      // A corner keyframe: reached turning, or where the teach run started turning (its heading is
+      // the straight segment's, but the walls of the corner are as near).
+      reference.turn = turnedBetween(route.keyframes[k - 1].pose, route.keyframes[k].pose) ||
+                       (k + 1 < route.keyframes.size() && turnedBetween(route.keyframes[k].pose, route.keyframes[k + 1].pose));
+    }
+    store.keyframes_.push_back(std::move(reference));
+  }
+  if (options.mode != RepeatMode::kMu && options.plane_feature_tolerance_px > 0.0) {
+    const Pose2D& m = route.info.camera_mount;
+    store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), CameraMount(m.x, m.y, m.yaw), options);
+  }
+  return store;
+}
+
+std::vector<Pose2D> KeyframeStore::poses() const {
+  std::vector<Pose2D> poses;
+  poses.reserve(keyframes_.size());
+  for (const auto& k : keyframes_) poses.push_back(k.base_pose);
+  return poses;
+}
+
+void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const CameraMount& mount,
+                                            const RepeatOptions& options) {
+  const int n = size();
+  if (n < 2) return;
+  for (int k = 0; k < n; ++k) {
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(k + 1 < n ? k + 1 : k - 1)];
+    const PlanarPose relative = mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
+    const Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
+    const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
+    if (!dmatches) continue;
+    std::vector<int> kept;
+    const PointMatches on_pixels =
+        undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
+    std::vector<int> on_plane;
+    for (std::size_t i = 0; i < on_pixels.size(); ++i) {
+      if (transferError(H, on_pixels[i]) < options.plane_feature_tolerance_px) {
+        on_plane.push_back((*dmatches)[static_cast<std::size_t>(kept[i])].queryIdx);
+      }
+    }
+    // Too few: a pure rotation to the neighbour maps every feature alike, or the neighbour shows
+    // little of this plane; keep every feature then.
+    if (static_cast<int>(on_plane.size()) < 2 * options.min_inliers) continue;
+    ImageFeatures subset;
+    subset.type = reference.features.type;
+    for (const int i : on_plane) {
+      subset.keypoints.push_back(reference.features.keypoints[static_cast<std::size_t>(i)]);
+      subset.descriptors.push_back(reference.features.descriptors.row(i));
+    }
+    reference.features = std::move(subset);
+  }
+}
+
+}  // namespace homography_teach_repeat

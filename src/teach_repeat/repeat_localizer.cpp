@@ -1,0 +1,199 @@
+#include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
+
+#include <chrono>
+#include <string>
+#include <utility>
+
+#include "homography_teach_repeat/fast_hd/plane_estimation.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+bool isClosedRoute(const Route& route, double max_gap) {
+  std::vector<Pose2D> poses;
+  for (const auto& k : route.keyframes) poses.push_back(k.pose);
+  return isClosedLoop(poses, max_gap);
+}
+
+RepeatLocalizer::RepeatLocalizer(const Route& route, KeyframeStore keyframes, std::unique_ptr<KeyframeEstimator> estimator)
+    : route_(route),
+      keyframes_(std::move(keyframes)),
+      estimator_(std::move(estimator)),
+      selector_(keyframes_.poses(), estimator_->context().options.closed_route_gap),
+      tracker_(estimator_->context().options.max_tracked_frames, estimator_->context().options.tracking_tolerance_px,
+               estimator_->context().options.min_inliers) {}
+
+Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
+  auto keyframes = KeyframeStore::load(route, options);  // validates the options
+  if (!keyframes) return keyframes.status();
+  const EstimatorContext context{PinholeCamera(route.info.camera), route.info.feature_type, route.info.camera_mount,
+                                 keyframes->poses(), options};
+  return RepeatLocalizer(route, std::move(*keyframes), makeKeyframeEstimator(context));
+}
+
+void RepeatLocalizer::setTrackedKeyframe(int keyframe) {
+  selector_.setTracked(keyframe);
+  tracker_.forget();
+}
+
+bool RepeatLocalizer::isTurnKeyframe(int keyframe) const {
+  return keyframe >= 0 && keyframe < keyframeCount() && keyframes_.at(keyframe).turn;
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose) {
+  timing_ = LocalizeTiming();
+  const auto extraction_start = std::chrono::steady_clock::now();
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
+  if (image.cols != camera().width() || image.rows != camera().height()) {
+    return Status(StatusCode::kInvalidInput, "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                                                 ", the route's camera is " + std::to_string(camera().width()) + "x" +
+                                                 std::to_string(camera().height()));
+  }
+  cv::Mat gray;  // point modes: the grey image, kept for tracking
+  if (estimator_->usesPointFeatures()) {
+    auto converted = toGray8(image);
+    if (!converted) return converted.status();
+    gray = std::move(*converted);
+    if (tracker_.canTrack(selector_.tracked())) {
+      auto estimate = localizeByTracking(gray);
+      if (estimate) return estimate;
+      // Detect afresh (the time spent on tracking counts as extraction).
+    }
+    tracker_.forget();
+  }
+  auto frame = estimator_->observe(image, gray);
+  if (!frame) return frame.status();
+  timing_.extraction_ms = millisecondsSince(extraction_start);
+  return localizeAgainstCandidates(std::move(*frame), gray, predicted_pose, options().neighbour_search,
+                                   options().max_degraded_frames);
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameObservations& frame, const cv::Mat& gray,
+                                                                    const std::optional<Pose2D>& predicted_pose,
+                                                                    int neighbour_search, int max_degraded_frames) {
+  const auto references_start = std::chrono::steady_clock::now();
+  auto against = [&](const KeyframeReference& reference, int keyframe) {
+    ++timing_.references_tried;
+    auto estimate = estimator_->estimate(reference, keyframe, frame, predicted_pose);
+    timing_.references_ms = millisecondsSince(references_start);
+    return estimate;
+  };
+  std::vector<int> candidates;
+  for (const int k : selector_.candidates(neighbour_search)) {
+    if (estimator_->usable(keyframes_.at(k), k, predicted_pose)) candidates.push_back(k);
+  }
+  Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
+  if (candidates.empty()) {
+    last_failure = Status(StatusCode::kNoConsensus,
+                          "mu: no keyframe near " + std::to_string(selector_.tracked()) +
+                              " gives a heading fix here (turned in place, or facing more than " +
+                              std::to_string(options().mu_max_reference_angle) + " rad away)");
+  }
+  for (const int k : candidates) {
+    auto estimate = against(keyframes_.at(k), k);
+    if (!estimate) {
+      last_failure = Status(estimate.status().code(), "keyframe " + std::to_string(k) + ": " + estimate.status().message());
+      continue;
+    }
+    keepAsTemporaryReference(frame, *estimate, keyframes_.at(k));
+    degraded_frames_ = 0;
+    rememberForTracking(*estimate, gray, 0);
+    advanceTracking(*estimate);
+    return estimate;
+  }
+  const bool temporary_usable =
+      temporary_ && estimator_->usable(*temporary_, temporary_keyframe_, predicted_pose);
+  if (!temporary_usable || degraded_frames_ >= max_degraded_frames) return last_failure;
+  auto estimate = against(*temporary_, temporary_keyframe_);
+  if (!estimate) {
+    return Status(estimate.status().code(),
+                  "temporary reference: " + estimate.status().message() + "; " + last_failure.message());
+  }
+  estimate->degraded = true;
+  ++degraded_frames_;
+  if (estimate->has_pose) {
+    // Chain: this frame is the next temporary reference (paper 000, outdoor experiment).
+    const KeyframeReference previous = *temporary_;
+    keepAsTemporaryReference(frame, *estimate, previous);
+    estimate->heading_correction =
+        wrapToPi(estimate->base_pose.yaw - route_.keyframes[static_cast<std::size_t>(temporary_keyframe_)].pose.yaw);
+  }
+  return estimate;
+}
+
+void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
+                                               const KeyframeReference& from) {
+  KeyframeReference current;
+  current.features = std::move(frame.features);
+  current.lines = std::move(frame.lines);
+  if (estimate.has_pose) {
+    // The frame's pose, and the reference's plane seen from it; without a plane it cannot serve.
+    current.base_pose = estimate.base_pose;
+    const auto plane = transferPlane(*from.plane, estimate.camera_relative);
+    if (!plane) return;
+    current.plane = *plane;
+  } else {
+    current.heading_offset = estimate.heading_correction;
+  }
+  if (!estimate.degraded) temporary_keyframe_ = estimate.keyframe;
+  temporary_ = std::move(current);
+}
+
+void RepeatLocalizer::rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked) {
+  tracker_.forget();
+  if (!estimate.has_pose || estimate.degraded) return;
+  tracker_.remember(estimate.inlier_matches, estimate.keyframe, gray, frames_tracked);
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto followed = tracker_.track(gray);
+  timing_.extraction_ms = millisecondsSince(start);
+  if (!followed) return followed.status();
+  const auto references_start = std::chrono::steady_clock::now();
+  ++timing_.references_tried;
+  const int keyframe = tracker_.keyframe();
+  auto estimate = estimator_->estimateFromMatches(keyframes_.at(keyframe), keyframe, *followed);
+  timing_.references_ms = millisecondsSince(references_start);
+  if (!estimate) return estimate;
+  estimate->tracked = true;
+  timing_.tracked = true;
+  degraded_frames_ = 0;
+  rememberForTracking(*estimate, gray, tracker_.framesTracked() + 1);
+  advanceTracking(*estimate);
+  return estimate;
+}
+
+void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
+  selector_.setTracked(estimate.keyframe);
+  if (estimate.has_pose) selector_.advanceTo(estimate.base_pose);
+}
+
+Expected<RepeatEstimate> RepeatLocalizer::initializeGlobally(const cv::Mat& image) {
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
+  auto gray = estimator_->usesPointFeatures() ? toGray8(image) : Expected<cv::Mat>(cv::Mat());
+  if (!gray) return gray.status();
+  auto frame = estimator_->observe(image, *gray);
+  if (!frame) return frame.status();
+  int best_keyframe = -1, best_inliers = -1;
+  for (int k = 0; k < keyframeCount(); ++k) {
+    setTrackedKeyframe(k);
+    // This keyframe alone: no neighbours, no temporary reference.
+    const auto estimate = localizeAgainstCandidates(*frame, *gray, std::nullopt, 0, 0);
+    if (estimate && estimate->inliers > best_inliers) {
+      best_inliers = estimate->inliers;
+      best_keyframe = k;
+    }
+  }
+  if (best_keyframe < 0) return Status(StatusCode::kNoConsensus, "the image matches no keyframe of the route");
+  setTrackedKeyframe(best_keyframe);
+  return localize(image);
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,426 @@
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+#include <sys/stat.h>
+#include <yaml-cpp/yaml.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <iomanip>
+#include <sstream>
+
+#include "homography_teach_repeat/common/atomic_file.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+const char* const kIndexName = "route.yaml";
+
+bool fileExists(const std::string& path) {
+  struct stat info {};
+  return ::stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+Status makeDirectory(const std::string& path) {
+  if (::mkdir(path.c_str(), 0755) == 0 || errno == EEXIST) {
+    struct stat info {};
+    if (::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode)) return Status::ok();
+  }
+  return Status(StatusCode::kInvalidInput,
+                "cannot create route directory '" + path + "': " + std::strerror(errno));
+}
+
+// RouteWriter::create and checkRouteDirectoryWritable: `directory` and keyframes/ created if
+// needed, then a directory that holds a route.yaml refused unless `overwrite`.
+Status makeRouteDirectories(const std::string& directory) {
+  Status status = makeDirectory(directory);
+  if (status.isOk()) status = makeDirectory(directory + "/keyframes");
+  return status;
+}
+
+Status refuseExistingRoute(const std::string& directory, bool overwrite) {
+  if (!overwrite && fileExists(directory + "/" + kIndexName)) {
+    return Status(StatusCode::kInvalidInput,
+                  "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
+  }
+  return Status::ok();
+}
+
+std::string keyframeStem(int index) {
+  std::ostringstream s;
+  s << "keyframes/" << std::setw(6) << std::setfill('0') << index;
+  return s.str();
+}
+
+void emitPose(YAML::Emitter& out, const Pose2D& pose) {
+  out << YAML::Flow << YAML::BeginMap << YAML::Key << "x" << YAML::Value << pose.x << YAML::Key
+      << "y" << YAML::Value << pose.y << YAML::Key << "yaw" << YAML::Value << pose.yaw
+      << YAML::EndMap;
+}
+
+// Field access that reports the file, the key and the line of the node on failure.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  template <typename T>
+  T get(const YAML::Node& node, const std::string& key) const {
+    const YAML::Node child = node[key];
+    if (!child) throw error(node, "missing field '" + key + "'");
+    try {
+      return child.as<T>();
+    } catch (const YAML::Exception&) {
+      throw error(child, "field '" + key + "' has the wrong type");
+    }
+  }
+  double finite(const YAML::Node& node, const std::string& key) const {
+    const double value = get<double>(node, key);
+    if (!std::isfinite(value)) throw error(node[key], "field '" + key + "' is not finite");
+    return value;
+  }
+  Pose2D pose(const YAML::Node& node, const std::string& key) const {
+    const YAML::Node child = node[key];
+    if (!child || !child.IsMap()) throw error(node, "missing map '" + key + "'");
+    return Pose2D(finite(child, "x"), finite(child, "y"), finite(child, "yaw"));
+  }
+  std::runtime_error error(const YAML::Node& node, const std::string& message) const {
+    const int line = node.Mark().line >= 0 ? node.Mark().line + 1 : 0;
+    return std::runtime_error(file_ + (line > 0 ? ":" + std::to_string(line) : "") + ": " +
+                              message);
+  }
+
+ private:
+  std::string file_;
+};
+
+}  // namespace
+
+Expected<RouteWriter> RouteWriter::create(const std::string& directory, const RouteInfo& info,
+                                          bool overwrite) {
+  try {
+    PinholeCamera check(info.camera);
+    (void)check;
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, std::string("route camera: ") + e.what());
+  }
+  Status status = makeRouteDirectories(directory);
+  if (status.isOk()) status = refuseExistingRoute(directory, overwrite);
+  if (!status.isOk()) return status;
+  RouteWriter writer;
+  writer.route_.directory = directory;
+  writer.route_.info = info;
+  // Fails here, at start, on a read-only directory rather than at the first keyframe.
+  status = writer.writeIndex();
+  if (!status.isOk()) return status;
+  return writer;
+}
+
+Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite) {
+  auto notWritable = [&directory](const Status& cause) {
+    return Status(StatusCode::kInvalidInput,
+                  "route directory '" + directory + "' is not writable: " + cause.message());
+  };
+  Status status = makeRouteDirectories(directory);
+  if (!status.isOk()) return notWritable(status);
+  status = refuseExistingRoute(directory, overwrite);
+  if (!status.isOk()) return status;
+  const std::string probe = directory + "/keyframes/.write_probe";
+  status = writeFileAtomically(probe, "teach_node write probe\n");
+  if (!status.isOk()) return notWritable(status);
+  std::remove(probe.c_str());
+  return Status::ok();
+}
+
+Status RouteWriter::addKeyframe(const cv::Mat& image, const ImageFeatures& features,
+                                const std::vector<VerticalLine>& lines, const Pose2D& pose,
+                                double stamp) {
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "keyframe image is empty");
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) ||
+      !std::isfinite(stamp)) {
+    return Status(StatusCode::kInvalidInput, "keyframe pose or stamp is not finite");
+  }
+  RouteKeyframe keyframe;
+  keyframe.index = static_cast<int>(route_.keyframes.size());
+  keyframe.stamp = stamp;
+  keyframe.pose = pose;
+  const std::string stem = keyframeStem(keyframe.index);
+  keyframe.image_file = stem + ".png";
+  keyframe.features_file = stem + ".features.yml";
+  keyframe.lines_file = stem + ".lines.yml";
+
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png)) {
+    return Status(StatusCode::kInvalidInput, "cannot encode keyframe image as PNG");
+  }
+  Status status = writeFileAtomically(route_.directory + "/" + keyframe.image_file,
+                                      std::string(png.begin(), png.end()));
+  if (!status.isOk()) return status;
+
+  cv::FileStorage storage(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  storage << "feature_type" << toString(features.type);
+  cv::write(storage, "keypoints", features.keypoints);
+  storage << "descriptors" << features.descriptors;
+  status = writeFileAtomically(route_.directory + "/" + keyframe.features_file,
+                               storage.releaseAndGetString());
+  if (!status.isOk()) return status;
+
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "lines" << YAML::Value << YAML::BeginSeq;
+  for (const auto& l : lines) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "x" << YAML::Value << l.x;
+    out << YAML::Key << "top" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.top.x() << l.top.y()
+        << YAML::EndSeq;
+    out << YAML::Key << "bottom" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.bottom.x()
+        << l.bottom.y() << YAML::EndSeq;
+    out << YAML::Key << "top_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << l.top_undistorted.x() << l.top_undistorted.y() << YAML::EndSeq;
+    out << YAML::Key << "bottom_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << l.bottom_undistorted.x() << l.bottom_undistorted.y() << YAML::EndSeq;
+    out << YAML::Key << "length" << YAML::Value << l.length;
+    out << YAML::Key << "dark_left" << YAML::Value << (l.polarity == EdgePolarity::kDarkLeft);
+    out << YAML::Key << "left_brightness" << YAML::Value << l.left_brightness;
+    out << YAML::Key << "right_brightness" << YAML::Value << l.right_brightness;
+    out << YAML::Key << "contrast" << YAML::Value << l.contrast;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  status = writeFileAtomically(route_.directory + "/" + keyframe.lines_file, out.c_str());
+  if (!status.isOk()) return status;
+
+  route_.keyframes.push_back(keyframe);
+  status = writeIndex();
+  if (!status.isOk()) route_.keyframes.pop_back();
+  return status;
+}
+
+Status RouteWriter::setPlanes(const std::vector<std::optional<ScenePlane>>& planes,
+                              double first_plane_distance) {
+  if (planes.size() != route_.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "one plane (or none) per keyframe is needed");
+  }
+  if (!(first_plane_distance >= 0.0) || !std::isfinite(first_plane_distance)) {
+    return Status(StatusCode::kInvalidInput, "first_plane_distance must be finite and >= 0");
+  }
+  for (std::size_t k = 0; k < planes.size(); ++k) route_.keyframes[k].plane = planes[k];
+  route_.info.first_plane_distance = first_plane_distance;
+  return writeIndex();
+}
+
+Status RouteWriter::writeIndex() const {
+  const RouteInfo& info = route_.info;
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "format_version" << YAML::Value << kRouteFormatVersion;
+  out << YAML::Key << "feature_type" << YAML::Value << toString(info.feature_type);
+  out << YAML::Key << "camera" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "width" << YAML::Value << info.camera.width;
+  out << YAML::Key << "height" << YAML::Value << info.camera.height;
+  out << YAML::Key << "fx" << YAML::Value << info.camera.fx;
+  out << YAML::Key << "fy" << YAML::Value << info.camera.fy;
+  out << YAML::Key << "cx" << YAML::Value << info.camera.cx;
+  out << YAML::Key << "cy" << YAML::Value << info.camera.cy;
+  out << YAML::Key << "distortion_model" << YAML::Value << info.camera.distortion_model;
+  out << YAML::Key << "distortion" << YAML::Value << YAML::Flow << info.camera.distortion;
+  out << YAML::EndMap;
+  out << YAML::Key << "camera_mount" << YAML::Value;
+  emitPose(out, info.camera_mount);
+  out << YAML::Key << "first_plane_distance" << YAML::Value << info.first_plane_distance;
+  out << YAML::Key << "keyframes" << YAML::Value << YAML::BeginSeq;
+  for (const auto& k : route_.keyframes) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "index" << YAML::Value << k.index;
+    out << YAML::Key << "stamp" << YAML::Value << k.stamp;
+    out << YAML::Key << "pose" << YAML::Value;
+    emitPose(out, k.pose);
+    out << YAML::Key << "image" << YAML::Value << k.image_file;
+    out << YAML::Key << "features" << YAML::Value << k.features_file;
+    out << YAML::Key << "lines" << YAML::Value << k.lines_file;
+    if (k.plane) {
+      out << YAML::Key << "plane" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "normal" << YAML::Value << YAML::Flow << YAML::BeginSeq
+          << k.plane->normal.x() << k.plane->normal.y() << k.plane->normal.z() << YAML::EndSeq;
+      out << YAML::Key << "distance" << YAML::Value << k.plane->distance << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return writeFileAtomically(route_.directory + "/" + kIndexName, std::string(out.c_str()) + "\n");
+}
+
+Expected<Route> loadRoute(const std::string& directory) {
+  const std::string index_path = directory + "/" + kIndexName;
+  if (!fileExists(index_path)) {
+    return Status(StatusCode::kInvalidInput,
+                  "no route at '" + directory + "': " + kIndexName + " not found");
+  }
+  Route route;
+  route.directory = directory;
+  const Reader reader(index_path);
+  try {
+    const YAML::Node root = YAML::LoadFile(index_path);
+    if (!root.IsMap()) throw reader.error(root, "not a YAML map (empty or truncated file?)");
+    const int version = reader.get<int>(root, "format_version");
+    if (version != kRouteFormatVersion) {
+      throw reader.error(root["format_version"],
+                         "unknown format_version " + std::to_string(version) + " (this build reads " +
+                             std::to_string(kRouteFormatVersion) + ")");
+    }
+    try {
+      route.info.feature_type = featureTypeFromString(reader.get<std::string>(root, "feature_type"));
+    } catch (const std::invalid_argument& e) {
+      throw reader.error(root["feature_type"], e.what());
+    }
+    const YAML::Node camera = root["camera"];
+    if (!camera || !camera.IsMap()) throw reader.error(root, "missing map 'camera'");
+    CameraCalibration& c = route.info.camera;
+    c.width = reader.get<int>(camera, "width");
+    c.height = reader.get<int>(camera, "height");
+    c.fx = reader.finite(camera, "fx");
+    c.fy = reader.finite(camera, "fy");
+    c.cx = reader.finite(camera, "cx");
+    c.cy = reader.finite(camera, "cy");
+    c.distortion_model = reader.get<std::string>(camera, "distortion_model");
+    c.distortion = reader.get<std::vector<double>>(camera, "distortion");
+    try {
+      PinholeCamera check(c);
+      (void)check;
+    } catch (const std::invalid_argument& e) {
+      throw reader.error(camera, std::string("bad camera: ") + e.what());
+    }
+    route.info.camera_mount = reader.pose(root, "camera_mount");
+    route.info.first_plane_distance = reader.finite(root, "first_plane_distance");
+    const YAML::Node keyframes = root["keyframes"];
+    if (!keyframes || !keyframes.IsSequence()) throw reader.error(root, "missing list 'keyframes'");
+    for (const auto& node : keyframes) {
+      RouteKeyframe k;
+      k.index = reader.get<int>(node, "index");
+      if (k.index != static_cast<int>(route.keyframes.size())) {
+        throw reader.error(node, "keyframe index " + std::to_string(k.index) + " out of order");
+      }
+      k.stamp = reader.finite(node, "stamp");
+      k.pose = reader.pose(node, "pose");
+      k.image_file = reader.get<std::string>(node, "image");
+      k.features_file = reader.get<std::string>(node, "features");
+      k.lines_file = reader.get<std::string>(node, "lines");
+      for (const std::string* file : {&k.image_file, &k.features_file, &k.lines_file}) {
+        if (!fileExists(directory + "/" + *file)) {
+          throw reader.error(node, "keyframe file '" + directory + "/" + *file + "' is missing");
+        }
+      }
+      if (node["plane"]) {
+        const YAML::Node plane = node["plane"];
+        const auto normal = reader.get<std::vector<double>>(plane, "normal");
+        if (normal.size() != 3) throw reader.error(plane, "plane normal needs 3 numbers");
+        ScenePlane p;
+        p.normal = Eigen::Vector3d(normal[0], normal[1], normal[2]);
+        p.distance = reader.finite(plane, "distance");
+        const Status valid = p.validate();
+        if (valid.code() == StatusCode::kInvalidInput) throw reader.error(plane, valid.message());
+        k.plane = p;
+      }
+      route.keyframes.push_back(k);
+    }
+  } catch (const YAML::Exception& e) {
+    return Status(StatusCode::kInvalidInput,
+                  index_path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  } catch (const std::runtime_error& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+  return route;
+}
+
+namespace {
+Status checkKeyframe(const Route& route, std::size_t keyframe) {
+  if (keyframe >= route.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(keyframe) +
+                                                 " is not in the route (" +
+                                                 std::to_string(route.keyframes.size()) + ")");
+  }
+  return Status::ok();
+}
+}  // namespace
+
+Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  const std::string path = route.directory + "/" + route.keyframes[keyframe].image_file;
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) {
+    return Status(StatusCode::kInvalidInput, "keyframe image '" + path + "' cannot be decoded");
+  }
+  return image;
+}
+
+Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  const std::string path = route.directory + "/" + route.keyframes[keyframe].features_file;
+  ImageFeatures features;
+  try {
+    cv::FileStorage storage(path, cv::FileStorage::READ);
+    if (!storage.isOpened()) {
+      return Status(StatusCode::kInvalidInput, "cannot open keyframe features '" + path + "'");
+    }
+    std::string type;
+    storage["feature_type"] >> type;
+    features.type = featureTypeFromString(type);
+    cv::read(storage["keypoints"], features.keypoints);
+    storage["descriptors"] >> features.descriptors;
+  } catch (const std::exception& e) {
+    return Status(StatusCode::kInvalidInput,
+                  "keyframe features '" + path + "' are corrupt: " + e.what());
+  }
+  if (features.type != route.info.feature_type ||
+      static_cast<int>(features.keypoints.size()) != features.descriptors.rows) {
+    return Status(StatusCode::kInvalidInput,
+                  "keyframe features '" + path + "' are inconsistent (type or count)");
+  }
+  return features;
+}
+
+Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  const std::string path = route.directory + "/" + route.keyframes[keyframe].lines_file;
+  const Reader reader(path);
+  std::vector<VerticalLine> lines;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    if (!root.IsMap() || !root["lines"] || !root["lines"].IsSequence()) {
+      throw reader.error(root, "missing list 'lines' (empty or truncated file?)");
+    }
+    auto point = [&](const YAML::Node& node, const std::string& key) {
+      const auto v = reader.get<std::vector<double>>(node, key);
+      if (v.size() != 2 || !std::isfinite(v[0]) || !std::isfinite(v[1])) {
+        throw reader.error(node, "'" + key + "' needs 2 finite numbers");
+      }
+      return Eigen::Vector2d(v[0], v[1]);
+    };
+    for (const auto& node : root["lines"]) {
+      VerticalLine l;
+      l.x = reader.finite(node, "x");
+      l.top = point(node, "top");
+      l.bottom = point(node, "bottom");
+      l.top_undistorted = point(node, "top_undistorted");
+      l.bottom_undistorted = point(node, "bottom_undistorted");
+      l.length = reader.finite(node, "length");
+      l.polarity = reader.get<bool>(node, "dark_left") ? EdgePolarity::kDarkLeft
+                                                       : EdgePolarity::kDarkRight;
+      l.left_brightness = reader.finite(node, "left_brightness");
+      l.right_brightness = reader.finite(node, "right_brightness");
+      l.contrast = reader.finite(node, "contrast");
+      lines.push_back(l);
+    }
+  } catch (const YAML::Exception& e) {
+    return Status(StatusCode::kInvalidInput, path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  } catch (const std::runtime_error& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+  return lines;
+}
+
+}  // namespace homography_teach_repeat

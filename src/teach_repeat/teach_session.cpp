@@ -1,0 +1,139 @@
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "homography_teach_repeat/fast_hd/plane_estimation.h"
+
+namespace homography_teach_repeat {
+
+void TeachOptions::validate() const {
+  if (route_directory.empty()) throw std::invalid_argument("route_directory must be set");
+  features.validate();
+  matching.validate();
+  robust.validate();
+  lines.validate();
+  keyframes.validate();
+  if (!std::isfinite(first_plane_distance) || first_plane_distance < 0.0) {
+    throw std::invalid_argument("first_plane_distance must be finite and >= 0 (0: no planes)");
+  }
+}
+
+TeachSession::TeachSession(const TeachOptions& options, const CameraCalibration& calibration)
+    : options_(options),
+      camera_(calibration),
+      features_(options.features),
+      lines_(options.lines) {}
+
+Expected<TeachSession> TeachSession::start(const TeachOptions& options,
+                                           const CameraCalibration& calibration,
+                                           const Pose2D& camera_mount) {
+  try {
+    options.validate();
+    TeachSession session(options, calibration);
+    RouteInfo info;
+    info.feature_type = options.features.type;
+    info.camera = calibration;
+    info.camera_mount = camera_mount;
+    info.first_plane_distance = options.first_plane_distance;
+    auto writer = RouteWriter::create(options.route_directory, info, options.overwrite);
+    if (!writer) return writer.status();
+    session.writer_.emplace(std::move(*writer));
+    return session;
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+}
+
+Expected<bool> TeachSession::offer(const cv::Mat& image, const Pose2D& odometry_pose,
+                                   double stamp) {
+  if (!std::isfinite(odometry_pose.x) || !std::isfinite(odometry_pose.y) ||
+      !std::isfinite(odometry_pose.yaw) || !std::isfinite(stamp)) {
+    return Status(StatusCode::kInvalidInput, "odometry pose or stamp is not finite");
+  }
+  if (image.cols != camera_.width() || image.rows != camera_.height()) {
+    return Status(StatusCode::kInvalidInput,
+                  "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                      ", the route's camera is " + std::to_string(camera_.width()) + "x" +
+                      std::to_string(camera_.height()));
+  }
+  if (!options_.keyframes.shouldStore(last_keyframe_pose_, odometry_pose)) return false;
+  auto features = features_.extract(image);
+  if (!features) return features.status();
+  auto lines = lines_.extract(image, &camera_);
+  if (!lines) return lines.status();
+  const Status written = writer_->addKeyframe(image, *features, *lines, odometry_pose, stamp);
+  if (!written.isOk()) return written;
+  keyframe_features_.push_back(std::move(*features));
+  last_keyframe_pose_ = odometry_pose;
+  return true;
+}
+
+Expected<PlaneEstimationReport> TeachSession::finish() {
+  PlaneEstimationReport report;
+  const Route& route = writer_->route();
+  report.keyframes = static_cast<int>(route.keyframes.size());
+  if (route.keyframes.size() < 2) {
+    return Status(StatusCode::kTooFewPoints, "plane estimation needs at least 2 keyframes, have " +
+                                                 std::to_string(route.keyframes.size()));
+  }
+  if (!options_.planes_from_odometry && !(options_.first_plane_distance > 0.0)) {
+    return Status(StatusCode::kInvalidInput,
+                  "first_plane_distance is not set: planes cannot be given a metric scale");
+  }
+  const CameraMount mount(route.info.camera_mount.x, route.info.camera_mount.y,
+                          route.info.camera_mount.yaw);
+  // Consecutive pairs until the first failure: the propagation (MATH.md §2.2) needs every link.
+  std::vector<ReferencePair> pairs;
+  for (std::size_t k = 0; k + 1 < route.keyframes.size(); ++k) {
+    const auto dmatches =
+        matchFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching);
+    ReferencePair pair;
+    pair.has_odometry = true;
+    pair.odometry_motion =
+        mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
+    if (!dmatches) {
+      report.messages.push_back("pair " + std::to_string(k) + ": " + dmatches.status().toString());
+      if (!options_.planes_from_odometry) break;
+      pair.has_homography = false;
+      pairs.push_back(pair);
+      continue;
+    }
+    PointMatches matches = toPointMatches(keyframe_features_[k], keyframe_features_[k + 1], *dmatches);
+    for (auto& m : matches) {
+      const cv::Point2d a = camera_.undistortPixel({m.reference.x(), m.reference.y()});
+      const cv::Point2d b = camera_.undistortPixel({m.current.x(), m.current.y()});
+      m.reference = Eigen::Vector2d(a.x, a.y);
+      m.current = Eigen::Vector2d(b.x, b.y);
+    }
+    const auto robust = estimateHomographyRobust(matches, options_.robust);
+    if (!robust) {
+      report.messages.push_back("pair " + std::to_string(k) + ": " + robust.status().toString());
+      if (!options_.planes_from_odometry) break;
+      pair.has_homography = false;
+      pairs.push_back(pair);
+      continue;
+    }
+    pair.H_next_from_current = robust->H;
+    for (const int i : robust->inliers) pair.reference_pixels.push_back(matches[i].reference);
+    pairs.push_back(pair);
+  }
+  std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
+  if (!pairs.empty()) {
+    const auto estimated = options_.planes_from_odometry
+                               ? estimatePlanesFromOdometry(pairs, camera_)
+                               : estimatePlanesAlongRoute(pairs, camera_, options_.first_plane_distance);
+    if (estimated) {
+      for (std::size_t k = 0; k < estimated->planes.size(); ++k) planes[k] = estimated->planes[k];
+      report.planes = static_cast<int>(estimated->planes.size());
+    } else {
+      report.messages.push_back("plane estimation: " + estimated.status().toString());
+    }
+  }
+  const Status written = writer_->setPlanes(planes, options_.first_plane_distance);
+  if (!written.isOk()) return written;
+  return report;
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,246 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "homography_teach_repeat/sim/differential_drive.h"
+#include "homography_teach_repeat/eval/path_deviation.h"
+#include "homography_teach_repeat/control/route_follower.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// A 4 x 3 m loop with a keyframe at each corner, heading to the next corner (paper 002's room).
+std::vector<Pose2D> squareRoute() {
+  return {Pose2D(0, 0, 0), Pose2D(4, 0, M_PI / 2), Pose2D(4, 3, M_PI), Pose2D(0, 3, -M_PI / 2)};
+}
+
+Pose2D integrate(const Pose2D& pose, const VelocityCommand& c, double dt) {
+  return Pose2D(pose.x + c.linear * std::cos(pose.yaw) * dt,
+                pose.y + c.linear * std::sin(pose.yaw) * dt, wrapToPi(pose.yaw + c.angular * dt));
+}
+
+// A taught loop like scripts/demo's: keyframes every 0.5 m along a 3 x 2 m rectangle and two more
+// while turning in place at each corner, including the start corner where the teach run ends
+// turning back to its start heading.
+std::vector<Pose2D> taughtLoop() {
+  const std::vector<Eigen::Vector2d> corners = {{1, 1}, {4, 1}, {4, 3}, {1, 3}, {1, 1}};
+  std::vector<Pose2D> route;
+  for (std::size_t c = 0; c + 1 < corners.size(); ++c) {
+    const Eigen::Vector2d edge = corners[c + 1] - corners[c];
+    const double yaw = std::atan2(edge.y(), edge.x());
+    if (c > 0) {
+      const double previous = route.back().yaw;
+      for (int k = 1; k <= 2; ++k) {
+        route.emplace_back(corners[c].x(), corners[c].y(), wrapToPi(previous + k / 3.0 * wrapToPi(yaw - previous)));
+      }
+    }
+    const double length = edge.norm();
+    for (double s = 0.0; s < length - (c + 2 == corners.size() ? 0.45 : 0.25); s += 0.5) {
+      const Eigen::Vector2d p = corners[c] + s / length * edge;
+      route.emplace_back(p.x(), p.y(), yaw);
+    }
+  }
+  for (int k = 1; k <= 2; ++k) route.emplace_back(1.0, 1.0, -M_PI / 2 + k / 3.0 * M_PI / 2);
+  return route;
+}
+
+// Closed-loop run with fixes at 10 Hz that are 0.05 s old when they arrive, control at 20 Hz.
+Pose2D runClosedLoop(RouteFollower& follower, Pose2D robot, int max_steps, FollowOutput* last = nullptr,
+                     const std::vector<Pose2D>* path = nullptr, double* max_deviation = nullptr) {
+  const double dt = 0.05;
+  Pose2D fix = robot;
+  FollowOutput out;
+  for (int k = 0; k < max_steps; ++k) {
+    const double now = k * dt;
+    if (k % 2 == 0) {
+      EXPECT_TRUE(follower.setFix(fix, now).isOk());
+    }
+    fix = robot;
+    out = follower.update(now, dt);
+    if (out.state == FollowState::kFinished) break;
+    EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
+    robot = integrateArc(robot, out.command.linear, out.command.angular, dt);
+    if (path != nullptr && max_deviation != nullptr) {
+      *max_deviation = std::max(*max_deviation, deviationFromPath(*path, robot).distance);
+    }
+  }
+  if (last != nullptr) *last = out;
+  return robot;
+}
+
+}  // namespace
+
+// A closed route ends where the robot started: after the laps the follower goes back to the
+// keyframe before start_index and turns to its heading (the end pose of the run, not a point
+// within ε of the last keyframe).
+TEST(RouteFollower, ClosedLoopEndsAtTheStartPose) {
+  const std::vector<Pose2D> route = taughtLoop();
+  ASSERT_TRUE(isClosedLoop(route, 1.0));
+  RouteFollowerOptions options;
+  options.laps = 5;
+  options.start_index = 1;
+  options.controller.goal_tolerance = 0.4;
+  RouteFollower follower(route, options);
+  FollowOutput out;
+  double max_deviation = 0.0;
+  const Pose2D end = runClosedLoop(follower, route.front(), 40000, &out, &route, &max_deviation);
+  ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+  // Corners where the teach run turned in place are turned at (corner_tolerance), not cut at ε.
+  EXPECT_LT(max_deviation, 0.2);
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_EQ(out.command.angular, 0.0);
+  EXPECT_LT(std::hypot(end.x - route.front().x, end.y - route.front().y), options.final_goal_tolerance + 0.01);
+  EXPECT_LT(std::abs(wrapToPi(end.yaw - route.front().yaw)), options.final_heading_tolerance + 0.01);
+  EXPECT_EQ(out.lap, 4);
+
+  options.return_to_start = false;  // ends at the last keyframe instead, with its heading
+  RouteFollower open_end(route, options);
+  const Pose2D end2 = runClosedLoop(open_end, route.front(), 40000, &out);
+  ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+  EXPECT_LT(std::hypot(end2.x - route.back().x, end2.y - route.back().y), options.final_goal_tolerance + 0.01);
+  EXPECT_LT(std::abs(wrapToPi(end2.yaw - route.back().yaw)), options.final_heading_tolerance + 0.01);
+}
+
+// The last goal beside or behind the robot: it turns towards it first instead of circling it.
+TEST(RouteFollower, FinalApproachFromAnyDirection) {
+  const std::vector<Pose2D> route = {Pose2D(0, 0, 0), Pose2D(1, 0, 0), Pose2D(1.3, 0.0, 1.0)};
+  RouteFollowerOptions options;
+  options.start_index = 2;
+  for (const Pose2D& start : {Pose2D(1.0, 0.5, 0.0), Pose2D(2.0, 0.2, 0.0), Pose2D(1.5, -0.3, -2.5)}) {
+    RouteFollower follower(route, options);
+    FollowOutput out;
+    const Pose2D end = runClosedLoop(follower, start, 4000, &out);
+    ASSERT_EQ(out.state, FollowState::kFinished) << out.reason;
+    EXPECT_LT(std::hypot(end.x - 1.3, end.y), options.final_goal_tolerance + 0.01);
+    EXPECT_LT(std::abs(wrapToPi(end.yaw - 1.0)), options.final_heading_tolerance + 0.01);
+  }
+  options.align_final_heading = false;  // stops at the point with whatever heading it has
+  RouteFollower follower(route, options);
+  FollowOutput out;
+  const Pose2D end = runClosedLoop(follower, Pose2D(1.0, 0.0, 0.0), 4000, &out);
+  ASSERT_EQ(out.state, FollowState::kFinished);
+  EXPECT_LT(std::hypot(end.x - 1.3, end.y), options.final_goal_tolerance + 0.01);
+  EXPECT_GT(std::abs(wrapToPi(end.yaw - 1.0)), 0.5);
+}
+
+// With a perfect fix every step the robot goes round the loop twice and stops at the end.
+TEST(RouteFollower, DrivesTheLoopForEveryLapThenStops) {
+  RouteFollowerOptions options;
+  options.laps = 2;
+  options.start_index = 1;  // the robot starts at keyframe 0
+  options.end_index = -1;
+  RouteFollower follower(squareRoute(), options);
+  Pose2D robot(0.0, 0.0, 0.0);
+  const double dt = 0.05;
+  int goals_seen = 0, last_goal = -1;
+  FollowOutput out;
+  for (int k = 0; k < 20000; ++k) {
+    const double now = k * dt;
+    ASSERT_TRUE(follower.setFix(robot, now).isOk());
+    out = follower.update(now, dt);
+    if (out.state == FollowState::kFinished) break;
+    ASSERT_EQ(out.state, FollowState::kFollowing) << out.reason;
+    if (out.goal_index != last_goal) {
+      ++goals_seen;
+      last_goal = out.goal_index;
+    }
+    robot = integrate(robot, out.command, dt);
+  }
+  EXPECT_EQ(out.state, FollowState::kFinished);
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_EQ(out.command.angular, 0.0);
+  EXPECT_EQ(goals_seen, 6);  // keyframes 1, 2, 3 twice
+  EXPECT_LT(std::hypot(robot.x - 0.0, robot.y - 3.0), options.controller.goal_tolerance);
+}
+
+TEST(RouteFollower, SafetyStops) {
+  RouteFollowerOptions options;
+  options.pose_timeout = 0.5;
+  RouteFollower follower(squareRoute(), options);
+  // No fix yet.
+  auto out = follower.update(0.0, 0.05);
+  EXPECT_EQ(out.state, FollowState::kWaiting);
+  EXPECT_EQ(out.command.linear, 0.0);
+  ASSERT_TRUE(follower.setFix(Pose2D(0.5, 0.0, 0.0), 10.0).isOk());
+  for (int k = 0; k < 10; ++k) out = follower.update(10.0 + 0.01 * k, 0.05);
+  EXPECT_EQ(out.state, FollowState::kFollowing);
+  EXPECT_GT(out.command.linear, 0.0);
+  // The fix grows old: zero command.
+  out = follower.update(10.6, 0.05);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_EQ(out.command.angular, 0.0);
+  EXPECT_NE(out.reason.find("pose_timeout"), std::string::npos);
+  // Lost tracking: zero until a new fix.
+  ASSERT_TRUE(follower.setFix(Pose2D(0.6, 0.0, 0.0), 11.0).isOk());
+  follower.setLost("no keyframe matches");
+  out = follower.update(11.05, 0.05);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_EQ(out.command.linear, 0.0);
+  ASSERT_TRUE(follower.setFix(Pose2D(0.6, 0.0, 0.0), 11.1).isOk());
+  EXPECT_EQ(follower.update(11.15, 0.05).state, FollowState::kFollowing);
+  // NaN fix.
+  EXPECT_EQ(follower.setFix(Pose2D(std::nan(""), 0.0, 0.0), 11.2).code(), StatusCode::kInvalidInput);
+  out = follower.update(11.25, 0.05);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_EQ(out.command.linear, 0.0);
+}
+
+// A failure report for a frame whose pose already arrived (same stamp or older) does not stop the
+// robot; a newer one does.
+TEST(RouteFollower, LostReportOlderThanTheFixIsIgnored) {
+  RouteFollower follower(squareRoute(), RouteFollowerOptions());
+  ASSERT_TRUE(follower.setFix(Pose2D(0.1, 0.0, 0.0), 10.0).isOk());
+  follower.setLost("no heading fix", 10.0);
+  EXPECT_EQ(follower.update(10.05, 0.05).state, FollowState::kFollowing);
+  follower.setLost("no heading fix", 9.9);
+  EXPECT_EQ(follower.update(10.1, 0.05).state, FollowState::kFollowing);
+  follower.setLost("lost", 10.1);
+  EXPECT_EQ(follower.update(10.15, 0.05).state, FollowState::kStopped);
+}
+
+TEST(RouteFollower, BadOptions) {
+  RouteFollowerOptions options;
+  EXPECT_THROW(RouteFollower({}, options), std::invalid_argument);
+  options.start_index = 7;
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.laps = 0;
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.pose_timeout = -1.0;
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  for (double RouteFollowerOptions::*field :
+       {&RouteFollowerOptions::final_approach_distance, &RouteFollowerOptions::final_goal_tolerance,
+        &RouteFollowerOptions::final_turn_angle, &RouteFollowerOptions::final_approach_gain,
+        &RouteFollowerOptions::final_turn_gain, &RouteFollowerOptions::final_heading_tolerance,
+        &RouteFollowerOptions::closed_route_gap}) {
+    options = RouteFollowerOptions();
+    options.*field = std::nan("");
+    EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  }
+}
+
+// dynamic_reconfigure retunes the controller and the timeout; a bad value changes nothing.
+TEST(RouteFollower, RetuneChangesTheTunablesOnly) {
+  RouteFollowerOptions options;
+  options.laps = 2;
+  RouteFollower follower(squareRoute(), options);
+  ASSERT_TRUE(follower.setFix(Pose2D(0.1, 0.0, 0.0), 0.0).isOk());
+  RouteFollowerOptions tuned = options;
+  tuned.pose_timeout = 2.0;
+  tuned.controller.max_linear_velocity = 0.2;
+  tuned.laps = 5;  // ignored: the goal sequence stays
+  follower.retune(tuned);
+  EXPECT_EQ(follower.options().pose_timeout, 2.0);
+  EXPECT_EQ(follower.controller().parameters().max_linear_velocity, 0.2);
+  EXPECT_EQ(follower.options().laps, 2);
+  // The fix at t = 0 is still fresh at 1.5 s with the new timeout.
+  EXPECT_EQ(follower.update(1.5, 0.05).state, FollowState::kFollowing);
+  RouteFollowerOptions bad = tuned;
+  bad.pose_timeout = 0.0;
+  EXPECT_THROW(follower.retune(bad), std::invalid_argument);
+  EXPECT_EQ(follower.options().pose_timeout, 2.0);
+}

@@ -1,0 +1,107 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "support/geometry_fixtures.h"
+#include "homography_teach_repeat/fast_hd/planar_pose_refinement.h"
+#include "homography_teach_repeat/eval/synthetic_plane_scene.h"
+
+using namespace homography_teach_repeat;
+using test_support::expectPoseNear;
+using test_support::mathCamera;
+using test_support::planeFromAngles;
+
+namespace {
+const PlanarPose kTruth(-1.1, 0.9, 0.45);  // scene B of MATH.md §3.5
+const ScenePlane kPlane = planeFromAngles(-0.5, 0.0, 7.0);
+
+PointMatches matchesOf(const ScenePlane& plane, int count, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  return sampleVisiblePlaneMatches(mathCamera(800.0), plane, kTruth, count, &rng);
+}
+}  // namespace
+
+TEST(PlanarPoseRefinement, ModelHomographyIsThePlaneInducedOne) {
+  const Eigen::Matrix3d a = poseHomography(mathCamera(), kTruth, kPlane);
+  const Eigen::Matrix3d b = planeInducedHomography(mathCamera(), kTruth, kPlane);
+  EXPECT_LT((a / a.norm() - b).norm(), 1e-12);
+}
+
+TEST(PlanarPoseRefinement, ConvergesToTheTruthOnExactData) {
+  const PointMatches matches = matchesOf(kPlane, 30, 1);
+  const PlanarPose start(kTruth.x + 0.3, kTruth.z - 0.4, kTruth.theta + 0.05);
+  const auto refined = refinePlanarPose(start, {{kPlane, matches}}, mathCamera(800.0));
+  ASSERT_TRUE(refined.isOk()) << refined.status().toString();
+  expectPoseNear(refined->pose, kTruth, 1e-9);
+  EXPECT_LT(refined->rms_transfer_error_px, 1e-7);
+  EXPECT_GT(refined->iterations, 1);
+}
+
+// Two planes refined jointly: each constrains the pose, together better than either.
+TEST(PlanarPoseRefinement, JointRefinementOverTwoPlanes) {
+  const ScenePlane second = planeFromAngles(0.6, 0.0, 5.0);
+  const PointMatches a = matchesOf(kPlane, 25, 2);
+  const PointMatches b = matchesOf(second, 25, 3);
+  const auto refined = refinePlanarPose(PlanarPose(-1.0, 1.0, 0.4), {{kPlane, a}, {second, b}},
+                                        mathCamera(800.0));
+  ASSERT_TRUE(refined.isOk()) << refined.status().toString();
+  expectPoseNear(refined->pose, kTruth, 1e-9);
+  const auto only_a = refinePlanarPose(kTruth, {{kPlane, a}}, mathCamera(800.0));
+  ASSERT_TRUE(only_a.isOk());
+  EXPECT_LT(refined->covariance.trace(), only_a->covariance.trace());
+}
+
+// The sandwich covariance against a Monte Carlo of the refinement (fixed seed).
+TEST(PlanarPoseRefinement, CovarianceAgreesWithMonteCarlo) {
+  const PointMatches exact = matchesOf(kPlane, 20, 4);
+  PoseRefinementOptions options;
+  options.sigma_px = 1.0;
+  const auto predicted = refinePlanarPose(kTruth, {{kPlane, exact}}, mathCamera(800.0), options);
+  ASSERT_TRUE(predicted.isOk());
+  std::mt19937_64 rng(12);
+  const int trials = 500;
+  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int t = 0; t < trials; ++t) {
+    const auto noisy = test_support::addPixelNoise(exact, 1.0, &rng);
+    const auto refined = refinePlanarPose(kTruth, {{kPlane, noisy}}, mathCamera(800.0), options);
+    ASSERT_TRUE(refined.isOk());
+    const Eigen::Vector3d e(refined->pose.x - kTruth.x, refined->pose.z - kTruth.z,
+                            wrapToPi(refined->pose.theta - kTruth.theta));
+    sum += e;
+    outer += e * e.transpose();
+  }
+  const Eigen::Vector3d mean = sum / trials;
+  const Eigen::Matrix3d empirical = outer / trials - mean * mean.transpose();
+  for (int k = 0; k < 3; ++k) {
+    const double ratio = std::sqrt(predicted->covariance(k, k) / empirical(k, k));
+    EXPECT_GT(ratio, 0.85) << "component " << k;
+    EXPECT_LT(ratio, 1.18) << "component " << k;
+  }
+}
+
+TEST(PlanarPoseRefinement, FailureStatuses) {
+  const PointMatches matches = matchesOf(kPlane, 10, 5);
+  const PinholeCamera camera = mathCamera(800.0);
+  EXPECT_EQ(refinePlanarPose(kTruth, {{kPlane, {matches[0]}}}, camera).status().code(),
+            StatusCode::kTooFewPoints);
+  EXPECT_EQ(refinePlanarPose(kTruth, {}, camera).status().code(), StatusCode::kTooFewPoints);
+  EXPECT_EQ(refinePlanarPose(PlanarPose(std::nan(""), 0, 0), {{kPlane, matches}}, camera)
+                .status()
+                .code(),
+            StatusCode::kInvalidInput);
+  PointMatches bad = matches;
+  bad[3].current.x() = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(refinePlanarPose(kTruth, {{kPlane, bad}}, camera).status().code(),
+            StatusCode::kInvalidInput);
+  // A start with the camera on the plane: the model homography is singular.
+  const PlanarPose on_plane(kPlane.normal.x() * kPlane.distance, kPlane.normal.z() * kPlane.distance,
+                            0.0);
+  EXPECT_EQ(refinePlanarPose(on_plane, {{kPlane, matches}}, camera).status().code(),
+            StatusCode::kDegenerate);
+  PoseRefinementOptions options;
+  options.max_iterations = 0;
+  EXPECT_EQ(refinePlanarPose(kTruth, {{kPlane, matches}}, camera, options).status().code(),
+            StatusCode::kInvalidInput);
+}

@@ -1,0 +1,219 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "support/geometry_fixtures.h"
+#include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/eval/synthetic_plane_scene.h"
+
+using namespace homography_teach_repeat;
+using test_support::expectPoseNear;
+using test_support::mathCamera;
+using test_support::planeFromAngles;
+
+namespace {
+
+std::vector<Eigen::Vector2d> referencePixels(const ScenePlane& plane, const PlanarPose& pose,
+                                             unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<Eigen::Vector2d> pixels;
+  for (const auto& m : sampleVisiblePlaneMatches(mathCamera(), plane, pose, 30, &rng)) {
+    pixels.push_back(m.reference);
+  }
+  return pixels;
+}
+
+void expectPlaneNear(const ScenePlane& actual, const ScenePlane& expected, double tolerance) {
+  EXPECT_LT((actual.normal - expected.normal).norm(), tolerance);
+  EXPECT_NEAR(actual.distance, expected.distance, tolerance);
+}
+
+}  // namespace
+
+// β ≠ 0: positive depth + planar motion leave one solution (MATH.md §2.1), scale from d1.
+TEST(PlaneEstimation, FirstPlaneFromTiltedPlane) {
+  const PlanarPose motion(0.4, 0.9, 0.15);
+  const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
+  const auto result =
+      estimateFirstPlane(planeInducedHomography(mathCamera(), motion, plane), mathCamera(),
+                         referencePixels(plane, motion, 1), plane.distance);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  expectPlaneNear(result->plane, plane, 1e-9);
+  expectPoseNear(result->motion, motion, 1e-9);
+  EXPECT_GE(result->candidates_after_planar_test, 1);
+  EXPECT_FALSE(result->resolved_by_odometry);  // the spurious solution tilts: no tie
+}
+
+// β = 0 (a vertical wall): two planar solutions survive; odometry chooses, none is an error.
+TEST(PlaneEstimation, VerticalPlaneNeedsOdometryToBreakTheTie) {
+  const PlanarPose motion(-0.5, 1.2, -0.2);
+  const ScenePlane plane = planeFromAngles(-0.25, 0.0, 5.0);
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), motion, plane);
+  const auto pixels = referencePixels(plane, motion, 2);
+  const auto without = estimateFirstPlane(H, mathCamera(), pixels, plane.distance);
+  EXPECT_EQ(without.status().code(), StatusCode::kDegenerate);
+  // Odometry over a 1.3 m step: 3 cm and 0.01 rad off (the spurious solution here is 0.15 m and
+  // 0.04 rad away from the truth).
+  const PlanarPose odometry(motion.x + 0.02, motion.z - 0.02, motion.theta + 0.01);
+  const auto with = estimateFirstPlane(H, mathCamera(), pixels, plane.distance, &odometry);
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  EXPECT_TRUE(with->resolved_by_odometry);
+  EXPECT_EQ(with->candidates_after_planar_test, 2);
+  expectPlaneNear(with->plane, plane, 1e-9);
+  expectPoseNear(with->motion, motion, 1e-9);
+}
+
+// The same tie broken by a third view of the plane from the first image (no odometry).
+TEST(PlaneEstimation, VerticalPlaneTieBrokenByThirdView) {
+  const PlanarPose motion(-0.5, 1.2, -0.2);
+  const PlanarPose motion3(0.6, 2.0, 0.25);
+  const ScenePlane plane = planeFromAngles(-0.25, 0.0, 5.0);
+  const Eigen::Matrix3d H21 = planeInducedHomography(mathCamera(), motion, plane);
+  const Eigen::Matrix3d H31 = planeInducedHomography(mathCamera(), motion3, plane);
+  const auto result = estimateFirstPlane(H21, mathCamera(), referencePixels(plane, motion, 4),
+                                         plane.distance, nullptr, &H31);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  EXPECT_TRUE(result->resolved_by_third_view);
+  expectPlaneNear(result->plane, plane, 1e-9);
+  expectPoseNear(result->motion, motion, 1e-9);
+}
+
+TEST(PlaneEstimation, FirstPlaneFailures) {
+  const PlanarPose motion(0.4, 0.9, 0.15);
+  const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), motion, plane);
+  const auto pixels = referencePixels(plane, motion, 3);
+  EXPECT_EQ(estimateFirstPlane(H, mathCamera(), pixels, 0.0).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(estimateFirstPlane(H, mathCamera(), {}, 6.0).status().code(),
+            StatusCode::kInvalidInput);
+  // A camera that pitches (not a planar motion): no solution passes the planar test.
+  Eigen::Matrix3d pitch;
+  pitch = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX());
+  const Eigen::Matrix3d H_pitch = mathCamera().K() * pitch * mathCamera().Kinverse() * H;
+  EXPECT_EQ(estimateFirstPlane(H_pitch, mathCamera(), pixels, 6.0).status().code(),
+            StatusCode::kDegenerate);
+}
+
+// MATH.md §2.2: the transferred plane is the plane seen from the next camera.
+TEST(PlaneEstimation, TransferPlaneMatchesDirectGeometry) {
+  const ScenePlane plane = planeFromAngles(0.3, 0.2, 6.0);
+  const PlanarPose pose(0.7, 1.5, 0.35);
+  const auto next = transferPlane(plane, pose);
+  ASSERT_TRUE(next.isOk());
+  // A point of the plane, expressed in the next camera's frame, satisfies n2·X2 = d2.
+  for (const Eigen::Vector3d& X1 : {Eigen::Vector3d(0.2, 0.1, 0.0), Eigen::Vector3d(-1.0, 0.4, 0.0)}) {
+    Eigen::Vector3d point = X1;
+    point.z() = (plane.distance - plane.normal.x() * point.x() - plane.normal.y() * point.y()) /
+                plane.normal.z();
+    const Eigen::Vector3d X2 = pose.rotation21() * (point - pose.centre());
+    EXPECT_NEAR(next->normal.dot(X2), next->distance, 1e-12);
+  }
+  EXPECT_NEAR(next->normal.norm(), 1.0, 1e-12);
+  const PlanarPose behind(plane.normal.x() * 7.0, plane.normal.z() * 7.0, 0.0);
+  EXPECT_EQ(transferPlane(plane, behind).status().code(), StatusCode::kDegenerate);
+}
+
+// MATH.md §2.3-2.4: the second plane from the homology of the two plane homographies.
+TEST(PlaneEstimation, SecondPlaneFromHomology) {
+  const PlanarPose motion(0.6, 1.1, -0.2);
+  const ScenePlane first = planeFromAngles(0.3, 0.1, 6.0);
+  const ScenePlane second = planeFromAngles(-0.7, 0.0, 4.0);
+  const auto result = estimateSecondPlane(
+      3.0 * planeInducedHomography(mathCamera(), motion, first),
+      -0.5 * planeInducedHomography(mathCamera(), motion, second), mathCamera(), first, motion);
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  expectPlaneNear(*result, second, 1e-9);
+  EXPECT_EQ(estimateSecondPlane(planeInducedHomography(mathCamera(), PlanarPose(0, 0, 0.1), first),
+                                planeInducedHomography(mathCamera(), PlanarPose(0, 0, 0.1), second),
+                                mathCamera(), first, PlanarPose(0, 0, 0.1))
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
+}
+
+// A taught route of four references: planes and motions everywhere from the first distance.
+TEST(PlaneEstimation, PlanesAlongRoute) {
+  // β = 0 (a vertical wall): the first pair is a tie, broken by the second pair (third view).
+  const ScenePlane plane0 = planeFromAngles(0.2, 0.0, 8.0);
+  const std::vector<PlanarPose> steps{PlanarPose(0.3, 1.0, 0.1), PlanarPose(-0.2, 0.8, -0.15),
+                                      PlanarPose(0.1, 0.9, 0.05)};
+  std::vector<ReferencePair> pairs;
+  std::vector<ScenePlane> truth{plane0};
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    ReferencePair pair;
+    pair.H_next_from_current = planeInducedHomography(mathCamera(), steps[k], truth.back());
+    pair.reference_pixels = referencePixels(truth.back(), steps[k], 10 + k);
+    truth.push_back(*transferPlane(truth.back(), steps[k]));
+    pairs.push_back(pair);
+  }
+  const auto route = estimatePlanesAlongRoute(pairs, mathCamera(), plane0.distance);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  ASSERT_EQ(route->planes.size(), 4u);
+  for (std::size_t k = 0; k < truth.size(); ++k) expectPlaneNear(route->planes[k], truth[k], 1e-9);
+  for (std::size_t k = 0; k < steps.size(); ++k) expectPoseNear(route->motions[k], steps[k], 1e-9);
+  EXPECT_EQ(estimatePlanesAlongRoute({}, mathCamera(), 8.0).status().code(),
+            StatusCode::kTooFewPoints);
+}
+
+// MATH.md §2.4's form without the homology: the plane from a homography and the known metric
+// motion, at any scale and sign of H; a pure rotation is refused.
+TEST(PlaneEstimation, PlaneFromHomographyAndKnownMotion) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const double alpha = 0.6 * u(rng), beta = 0.2 * u(rng);
+    const ScenePlane plane{Eigen::Vector3d(std::cos(beta) * std::sin(alpha), std::sin(beta),
+                                           std::cos(beta) * std::cos(alpha)),
+                           2.0 + 3.0 * (u(rng) + 1.0)};
+    const PlanarPose motion(0.4 * u(rng), 0.5 * u(rng) + 0.6, 0.3 * u(rng));
+    const Eigen::Matrix3d H = -3.7 * planeInducedHomography(mathCamera(), motion, plane);
+    const auto estimated = planeFromHomographyAndMotion(H, mathCamera(), motion);
+    ASSERT_TRUE(estimated.isOk()) << estimated.status().toString();
+    EXPECT_NEAR((estimated->normal - plane.normal).norm(), 0.0, 1e-9) << trial;
+    EXPECT_NEAR(estimated->distance, plane.distance, 1e-9 * plane.distance) << trial;
+  }
+  const PlanarPose rotation(0.0, 0.0, 0.3);
+  const ScenePlane wall{Eigen::Vector3d::UnitZ(), 3.0};
+  EXPECT_EQ(planeFromHomographyAndMotion(planeInducedHomography(mathCamera(), rotation, wall), mathCamera(),
+                                         rotation, 0.1)
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
+}
+
+// Round a corner: two walls, a turn in place between them. Each leg's keyframes get their own
+// wall from the odometry; the keyframes of the turn inherit the transferred plane.
+TEST(PlaneEstimation, PlanesFromOdometryAcrossTwoWalls) {
+  // Leg 1 faces the wall z = 5 (frame of keyframe 0); then the camera turns 90° left in place and
+  // faces the wall x = -4 of frame 0.
+  const ScenePlane wall_a{Eigen::Vector3d::UnitZ(), 5.0};
+  const ScenePlane wall_b{-Eigen::Vector3d::UnitX(), 4.0};
+  std::vector<PlanarPose> cameras = {PlanarPose(0, 0, 0), PlanarPose(0, 0.5, 0), PlanarPose(0, 1.0, 0),
+                                     PlanarPose(0, 1.0, M_PI / 4), PlanarPose(0, 1.0, M_PI / 2),
+                                     PlanarPose(-0.5, 1.0, M_PI / 2), PlanarPose(-1.0, 1.0, M_PI / 2)};
+  std::vector<ReferencePair> pairs;
+  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
+    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
+    const bool second_wall = k >= 3;
+    const auto plane_k = transferPlane(second_wall ? wall_b : wall_a, cameras[k]);
+    ASSERT_TRUE(plane_k.isOk());
+    ReferencePair pair;
+    pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *plane_k);
+    pair.has_odometry = true;
+    pair.odometry_motion = motion;
+    pairs.push_back(pair);
+  }
+  pairs[1].has_homography = false;  // a failed pair: filled by transfer
+  const auto result = estimatePlanesFromOdometry(pairs, mathCamera());
+  ASSERT_TRUE(result.isOk()) << result.status().toString();
+  ASSERT_EQ(result->planes.size(), cameras.size());
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    // Keyframes 0..3 see wall a (3 is the turn's start, transferred), 4.. see wall b.
+    const auto truth = transferPlane(k <= 3 ? wall_a : wall_b, cameras[k]);
+    ASSERT_TRUE(truth.isOk());
+    EXPECT_NEAR((result->planes[k].normal - truth->normal).norm(), 0.0, 1e-6) << k;
+    EXPECT_NEAR(result->planes[k].distance, truth->distance, 1e-6) << k;
+  }
+}

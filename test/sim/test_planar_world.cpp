@@ -1,0 +1,294 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "homography_teach_repeat/sim/differential_drive.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/homography/homography.h"
+#include "homography_teach_repeat/eval/path_deviation.h"
+#include "homography_teach_repeat/sim/planar_world.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/sim/waypoint_driver.h"
+#include "homography_teach_repeat/sim/world_renderer.h"
+#include "support/synthetic_route.h"
+#include "support/test_images.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// The 640x480, f = 500 px camera of the synthetic route tests.
+PinholeCamera simCamera() { return PinholeCamera(test_support::syntheticCalibration()); }
+
+cv::Mat colourTexture(int seed) {
+  cv::Mat grey = test_support::makeTexture(400, 300, seed);
+  cv::Mat bgr;
+  cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+  return bgr;
+}
+
+Wall makeWall(Eigen::Vector2d a, Eigen::Vector2d b, cv::Mat texture, double height = 2.0) {
+  Wall w;
+  w.start = a;
+  w.end = b;
+  w.height = height;
+  w.texture = texture;
+  w.texture_width = 2.0;
+  w.texture_height = 1.5;
+  return w;
+}
+
+// The wall x = 4 (world), seen from cameras near the origin looking along +x; one copy of the
+// texture covers it (a tiled texture repeats, and repeated patterns mismatch).
+PlanarWorld oneWall() {
+  PlanarWorld world;
+  world.source = "test";
+  cv::Mat grey = test_support::makeTexture(800, 400, 21), texture;
+  cv::cvtColor(grey, texture, cv::COLOR_GRAY2BGR);
+  Wall wall = makeWall({4.0, 3.0}, {4.0, -3.0}, texture, 3.0);
+  wall.texture_width = 6.0;
+  wall.texture_height = 3.0;
+  world.walls.push_back(wall);
+  return world;
+}
+
+// The plane of the wall x = 4 in the camera frame of a camera at `pose` (x right, y down, z forward).
+ScenePlane wallPlaneInCamera(const Pose2D& pose, double wall_x) {
+  // World normal pointing away from the camera: +x. In camera axes: n = (-m.left, 0, m.forward).
+  const Eigen::Vector2d m(1.0, 0.0);
+  const Eigen::Vector2d forward(std::cos(pose.yaw), std::sin(pose.yaw));
+  const Eigen::Vector2d left(-std::sin(pose.yaw), std::cos(pose.yaw));
+  ScenePlane plane;
+  plane.normal = Eigen::Vector3d(-m.dot(left), 0.0, m.dot(forward));
+  plane.distance = wall_x - pose.x;
+  return plane;
+}
+
+}  // namespace
+
+// The rendered images of a textured wall from two poses are related by exactly the plane-induced
+// homography of MATH.md §1.2: features matched between them fit it within a fraction of a pixel.
+TEST(WorldRenderer, TwoViewsOfAWallAreRelatedByThePlaneHomography) {
+  const PlanarWorld world = oneWall();
+  const WorldRenderer renderer(simCamera(), RenderOptions());
+  cv::RNG rng(1);
+  const Pose2D a(0.0, 0.0, 0.0), b(0.6, 0.25, 0.12);
+  const cv::Mat image_a = renderer.render(world, a, 1.0, rng);
+  const cv::Mat image_b = renderer.render(world, b, 1.0, rng);
+  const PlanarPose relative = rep103ToCameraAxes(a.inverse().compose(b));
+  const Eigen::Matrix3d H = planeInducedHomography(simCamera(), relative, wallPlaneInCamera(a, 4.0));
+  FeatureOptions fo;
+  fo.type = FeatureType::kSift;
+  FeatureExtractor extractor(fo);
+  const auto fa = extractor.extract(image_a);
+  const auto fb = extractor.extract(image_b);
+  ASSERT_TRUE(fa.isOk() && fb.isOk());
+  const auto matches = matchFeatures(*fa, *fb, MatchOptions());
+  ASSERT_TRUE(matches.isOk());
+  const PointMatches points = toPointMatches(*fa, *fb, *matches);
+  ASSERT_GT(points.size(), 100u);
+  std::vector<double> errors;
+  for (const auto& m : points) errors.push_back(transferError(H, m));
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.3) << "median transfer error of the analytic homography [px]";
+}
+
+// A near wall hides the far one in the columns it covers; walls behind the camera are not drawn.
+TEST(WorldRenderer, OcclusionAndClippingBehindTheCamera) {
+  PlanarWorld world;
+  world.source = "test";
+  world.walls.push_back(makeWall({6.0, 5.0}, {6.0, -5.0}, cv::Mat(10, 10, CV_8UC3, cv::Scalar(255, 0, 0))));
+  world.walls.push_back(makeWall({2.0, 0.5}, {2.0, -0.5}, cv::Mat(10, 10, CV_8UC3, cv::Scalar(0, 0, 255))));
+  world.walls.push_back(makeWall({-1.0, 5.0}, {-1.0, -5.0}, cv::Mat(10, 10, CV_8UC3, cv::Scalar(0, 255, 0))));
+  RenderOptions options;
+  options.camera_height = 1.0;
+  const WorldRenderer renderer(simCamera(), options);
+  cv::RNG rng(1);
+  const cv::Mat image = renderer.render(world, Pose2D(0.0, 0.0, 0.0), 1.0, rng);
+  // Centre column: the near (red) wall; the near wall spans |x_n| < 0.25 -> |u - cx| < 125 px.
+  EXPECT_EQ(image.at<cv::Vec3b>(240, 320), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(image.at<cv::Vec3b>(240, 320 + 150), cv::Vec3b(255, 0, 0));  // far (blue) wall beside it
+  // No green anywhere: the wall behind the camera is clipped.
+  cv::Mat green;
+  cv::inRange(image, cv::Scalar(0, 250, 0), cv::Scalar(5, 255, 5), green);
+  EXPECT_EQ(cv::countNonZero(green), 0);
+  // Floor below the near wall's foot, ceiling above the far wall's top (height 2 m at 6 m: 1 m
+  // above the camera -> 500 * 1 / 6 = 83 px above the centre).
+  EXPECT_EQ(image.at<cv::Vec3b>(479, 470), world.floor_colour);
+  EXPECT_EQ(image.at<cv::Vec3b>(240 - 100, 470), world.ceiling_colour);
+  // Facing away from every wall but the green one: only green, floor and ceiling.
+  const cv::Mat back = renderer.render(world, Pose2D(0.0, 0.0, M_PI), 1.0, rng);
+  EXPECT_EQ(back.at<cv::Vec3b>(240, 320), cv::Vec3b(0, 255, 0));
+}
+
+TEST(WorldRenderer, ScanOfASquareRoom) {
+  PlanarWorld world;
+  world.source = "test";
+  const cv::Mat t(4, 4, CV_8UC3, cv::Scalar(128, 128, 128));
+  world.walls = {makeWall({-2, -2}, {2, -2}, t), makeWall({2, -2}, {2, 2}, t), makeWall({2, 2}, {-2, 2}, t),
+                 makeWall({-2, 2}, {-2, -2}, t)};
+  const auto ranges = castScan(world, Pose2D(1.0, 0.0, 0.0), -M_PI / 2, M_PI / 2, 3, 10.0);
+  ASSERT_EQ(ranges.size(), 3u);
+  EXPECT_NEAR(ranges[0], 2.0, 1e-6);  // right: y = -2
+  EXPECT_NEAR(ranges[1], 1.0, 1e-6);  // ahead: x = 2
+  EXPECT_NEAR(ranges[2], 2.0, 1e-6);
+  const auto short_range = castScan(world, Pose2D(1.0, 0.0, 0.0), 0.0, 0.0, 1, 0.5);
+  EXPECT_TRUE(std::isinf(short_range[0]));
+}
+
+TEST(PlanarWorld, LoaderNamesTheBadField) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "htr_world_test";
+  std::filesystem::create_directories(dir);
+  cv::imwrite((dir / "t.png").string(), colourTexture(3));
+  auto write = [&](const std::string& walls) {
+    std::ofstream((dir / "w.yaml").string()) << "format_version: 1\nwalls:\n" << walls;
+    return loadPlanarWorld((dir / "w.yaml").string());
+  };
+  const std::string good = "  - {name: a, start: [0, 0], end: [2, 0], height: 2, texture: t.png, texture_size: [1, 1]}\n";
+  const auto ok = write(good);
+  ASSERT_TRUE(ok.isOk()) << ok.status().toString();
+  EXPECT_EQ(ok->walls.size(), 1u);
+  EXPECT_EQ(ok->walls[0].texture.type(), CV_8UC3);
+  auto expectError = [&](const std::string& walls, const std::string& needle) {
+    const auto world = write(walls);
+    ASSERT_FALSE(world.isOk()) << walls;
+    EXPECT_NE(world.status().message().find(needle), std::string::npos) << world.status().message();
+  };
+  expectError("  - {start: [0, 0], end: [2, 0], height: 2, texture: missing.png, texture_size: [1, 1]}\n",
+              "walls[0].texture");
+  expectError("  - {start: [1, 1], end: [1, 1], height: 2, texture: t.png, texture_size: [1, 1]}\n",
+              "zero-length");
+  expectError("  - {start: [0, .nan], end: [2, 0], height: 2, texture: t.png, texture_size: [1, 1]}\n",
+              "walls[0].start[1]");
+  expectError("  - {start: [0, 0], end: [2, 0], height: -1, texture: t.png, texture_size: [1, 1]}\n",
+              "height");
+  expectError("  - {start: [0, 0], end: [2, 0], height: 2, texture: t.png}\n", "texture_size");
+  EXPECT_FALSE(loadPlanarWorld((dir / "absent.yaml").string()).isOk());
+  std::ofstream((dir / "v.yaml").string()) << "format_version: 7\nwalls: []\n";
+  EXPECT_NE(loadPlanarWorld((dir / "v.yaml").string()).status().message().find("format_version"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
+  // A full circle returns to the start.
+  Pose2D pose(1.0, 2.0, 0.3);
+  for (int i = 0; i < 100; ++i) pose = integrateArc(pose, 0.5, 2.0 * M_PI / 10.0, 0.1);
+  EXPECT_NEAR(pose.x, 1.0, 1e-9);
+  EXPECT_NEAR(pose.y, 2.0, 1e-9);
+  // 10 m straight with a heading bias of 0.01 rad/m and a 2% scale error.
+  OdometryErrorModel errors;
+  errors.heading_bias_per_metre = 0.01;
+  errors.scale_error = 0.02;
+  DifferentialDriveSim robot(Pose2D(), errors, DriveLimits());
+  for (int i = 0; i < 200; ++i) robot.step(0.5, 0.0, 0.1);
+  EXPECT_NEAR(robot.truth().x, 10.0, 1e-9);
+  EXPECT_NEAR(robot.truth().y, 0.0, 1e-9);
+  EXPECT_NEAR(robot.odometry().yaw, 0.1, 1e-9);
+  EXPECT_NEAR(robot.distanceTravelled(), 10.0, 1e-9);
+  // The odometry believes 10.2 m along an arc turning 0.1 rad.
+  EXPECT_NEAR(std::hypot(robot.odometry().x, robot.odometry().y), 10.2 * std::sin(0.05) / 0.05, 1e-3);
+  // Limits and NaN commands.
+  const auto applied = robot.step(5.0, std::nan(""), 0.1);
+  EXPECT_EQ(applied.first, DriveLimits().max_linear_velocity);
+  EXPECT_EQ(applied.second, 0.0);
+  OdometryErrorModel bad;
+  bad.distance_noise = -1.0;
+  EXPECT_THROW(DifferentialDriveSim(Pose2D(), bad, DriveLimits()), std::invalid_argument);
+}
+
+// driveWaypoints: frames every frame_period of simulated time, the drive ends at the loop's start,
+// a failing frame stops it with its status, and a drive too long for max_duration is an error.
+TEST(WaypointDriver, DriveWaypointsCallsFramesAtTheirPeriod) {
+  const std::vector<Eigen::Vector2d> loop = {{2, 0}, {2, 1}, {0, 1}, {0, 0}};
+  WaypointDriver driver(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  std::vector<double> times;
+  const Status done = driveWaypoints(driver, robot, 1.0 / 300.0, 1.0 / 30.0, 600.0,
+                                     [&](const DifferentialDriveSim&, double t) {
+                                       times.push_back(t);
+                                       return Status::ok();
+                                     });
+  ASSERT_TRUE(done.isOk()) << done.toString();
+  EXPECT_TRUE(driver.finished());
+  EXPECT_LT(std::hypot(robot.truth().x, robot.truth().y), 0.05);
+  ASSERT_GT(times.size(), 100U);
+  for (std::size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(times[k], k / 30.0, 0.5 / 300.0 + 1e-12);
+
+  WaypointDriver again(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot2{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  int calls = 0;
+  const Status failed = driveWaypoints(again, robot2, 0.01, 0.1, 600.0, [&](const DifferentialDriveSim&, double) {
+    return ++calls == 3 ? Status(StatusCode::kInvalidInput, "frame 3 refused") : Status::ok();
+  });
+  EXPECT_EQ(failed.message(), "frame 3 refused");
+  EXPECT_EQ(calls, 3);
+
+  WaypointDriver slow(loop, WaypointDriverOptions());
+  DifferentialDriveSim robot3{Pose2D(), OdometryErrorModel(), DriveLimits()};
+  const auto none = [](const DifferentialDriveSim&, double) { return Status::ok(); };
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.01, 0.1, 2.0, none).code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.0, 0.1, 2.0, none).code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(driveWaypoints(slow, robot3, 0.01, std::nan(""), 2.0, none).code(), StatusCode::kInvalidInput);
+}
+
+// The scripted teach drive goes round a 4 x 3 m loop and stops at its start.
+TEST(WaypointDriver, DrivesTheLoopAndStops) {
+  const std::vector<Eigen::Vector2d> loop = {{4, 0}, {4, 3}, {0, 3}, {0, 0}};
+  WaypointDriver driver(loop, WaypointDriverOptions());
+  Pose2D pose(0.0, 0.0, 0.0);
+  double max_off_path = 0.0;
+  int steps = 0;
+  for (; steps < 20000 && !driver.finished(); ++steps) {
+    const VelocityCommand c = driver.update(pose);
+    pose = integrateArc(pose, c.linear, c.angular, 0.02);
+    // Distance to the loop's rectangle outline.
+    const double dx = std::min(std::abs(pose.x), std::abs(pose.x - 4.0));
+    const double dy = std::min(std::abs(pose.y), std::abs(pose.y - 3.0));
+    max_off_path = std::max(max_off_path, std::min(dx, dy));
+  }
+  EXPECT_TRUE(driver.finished());
+  EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);
+  EXPECT_LT(max_off_path, 0.05);
+  const VelocityCommand stopped = driver.update(pose);
+  EXPECT_EQ(stopped.linear, 0.0);
+  EXPECT_EQ(stopped.angular, 0.0);
+  EXPECT_THROW(WaypointDriver({}, WaypointDriverOptions()), std::invalid_argument);
+
+  // With turn_to_final_yaw it then turns in place to face as it started.
+  WaypointDriverOptions turning;
+  turning.turn_to_final_yaw = true;
+  turning.final_yaw = 0.0;
+  WaypointDriver closing(loop, turning);
+  pose = Pose2D(0.0, 0.0, 0.0);
+  for (steps = 0; steps < 20000 && !closing.finished(); ++steps) {
+    const VelocityCommand c = closing.update(pose);
+    pose = integrateArc(pose, c.linear, c.angular, 0.02);
+  }
+  EXPECT_TRUE(closing.finished());
+  EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);
+  EXPECT_LT(std::abs(pose.yaw), turning.final_yaw_tolerance + 0.01);
+  turning.final_yaw = NAN;
+  EXPECT_THROW(WaypointDriver(loop, turning), std::invalid_argument);
+}
+
+TEST(PathDeviation, DistanceToThePolylineAndHeadingOfTheNearestKeyframe) {
+  const std::vector<Pose2D> path = {Pose2D(0, 0, 0), Pose2D(2, 0, 0), Pose2D(2, 2, M_PI / 2)};
+  const PathDeviation beside = deviationFromPath(path, Pose2D(1.0, 0.3, 0.1));
+  EXPECT_NEAR(beside.distance, 0.3, 1e-12);
+  EXPECT_NEAR(beside.heading_error, 0.1, 1e-12);
+  const PathDeviation up = deviationFromPath(path, Pose2D(2.2, 1.8, M_PI / 2));
+  EXPECT_NEAR(up.distance, 0.2, 1e-12);
+  EXPECT_EQ(up.nearest_keyframe, 2);
+  EXPECT_NEAR(up.heading_error, 0.0, 1e-12);
+  const PathDeviation beyond = deviationFromPath(path, Pose2D(-1.0, 0.0, 0.0));
+  EXPECT_NEAR(beyond.distance, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(deviationFromPath({}, Pose2D()).distance));
+  EXPECT_TRUE(std::isnan(deviationFromPath(path, Pose2D(NAN, 0, 0)).distance));
+}

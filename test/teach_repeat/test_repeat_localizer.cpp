@@ -1,0 +1,372 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
+#include "support/synthetic_route.h"
+
+using namespace homography_teach_repeat;
+using test_support::SyntheticWall;
+
+namespace {
+
+// The robot pose (base = camera, mount at the origin) of a camera pose of the synthetic scene.
+Pose2D basePose(const PlanarPose& camera_pose) { return cameraAxesToRep103(camera_pose); }
+
+class RepeatLocalizerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    wall_ = new SyntheticWall();
+    directory_ = test_support::teachSyntheticRoute(*wall_, FeatureType::kAkaze);
+  }
+  static void TearDownTestSuite() {
+    std::filesystem::remove_all(directory_);
+    delete wall_;
+  }
+  static Route route() {
+    auto r = loadRoute(directory_);
+    EXPECT_TRUE(r.isOk()) << r.status().toString();
+    return *r;
+  }
+  static SyntheticWall* wall_;
+  static std::string directory_;
+};
+SyntheticWall* RepeatLocalizerTest::wall_ = nullptr;
+std::string RepeatLocalizerTest::directory_;
+
+}  // namespace
+
+// Fast-HD mode along a path that is 8 cm to the side of the taught one and turned by 2°: the
+// base pose in the route frame within 2 cm / 0.2°, a covariance, and the tracked keyframe moving on.
+TEST_F(RepeatLocalizerTest, FastHdFollowsTheRoute) {
+  RepeatOptions options;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  EXPECT_EQ(localizer->keyframeCount(), 6);
+  int last_keyframe = 0;
+  for (int step = 0; step < 14; ++step) {
+    const double s = 0.1 * step + 0.03;
+    const PlanarPose camera_pose(0.08 * s + 0.08, s, 0.04 * s + 0.035);
+    const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+    ASSERT_TRUE(estimate.isOk()) << step << ": " << estimate.status().toString();
+    EXPECT_FALSE(estimate->degraded);
+    ASSERT_TRUE(estimate->has_pose);
+    EXPECT_TRUE(estimate->covariance_known);
+    const Pose2D truth = basePose(camera_pose);
+    EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.02) << step;
+    EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.02) << step;
+    EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.2 * M_PI / 180.0) << step;
+    const Eigen::Matrix3d& c = estimate->covariance;
+    EXPECT_GT(c(0, 0), 0.0);
+    EXPECT_LT(std::sqrt(c(0, 0) + c(1, 1)), 0.2);
+    EXPECT_GE(localizer->trackedKeyframe(), last_keyframe);
+    last_keyframe = localizer->trackedKeyframe();
+  }
+  EXPECT_GE(last_keyframe, 4);
+}
+
+// μ mode: the heading relative to the keyframe from vertical lines (pure rotation at a keyframe).
+TEST_F(RepeatLocalizerTest, MuModeGivesTheHeading) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Route& r = localizer->route();
+  for (const double yaw : {-0.06, 0.03, 0.08}) {
+    localizer->setTrackedKeyframe(2);
+    const PlanarPose keyframe_camera = rep103ToCameraAxes(r.keyframes[2].pose);
+    const PlanarPose turned(keyframe_camera.x, keyframe_camera.z, keyframe_camera.theta + yaw);
+    const auto estimate = localizer->localize(wall_->imageAt(turned));
+    ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+    EXPECT_FALSE(estimate->has_pose);
+    EXPECT_EQ(estimate->keyframe, 2);
+    EXPECT_NEAR(estimate->heading_correction, yaw, 0.15 * M_PI / 180.0);
+  }
+}
+
+// μ mode gives no position, so tracking moves on from a position known otherwise (the
+// heading-aided odometry of repeat_node): to the keyframe nearest that position, never back.
+TEST_F(RepeatLocalizerTest, MuModeTrackingFollowsAnExternalPosition) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Route& r = localizer->route();
+  localizer->setTrackedKeyframe(0);
+  localizer->advanceTrackingTo(r.keyframes[3].pose);
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(r.keyframes[1].pose);  // never backwards
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(Pose2D(NAN, 0.0, 0.0));
+  EXPECT_EQ(localizer->trackedKeyframe(), 3);
+  localizer->advanceTrackingTo(r.keyframes.back().pose);
+  EXPECT_EQ(localizer->trackedKeyframe(), localizer->keyframeCount() - 1);
+}
+
+// Where the teach run turned in place the keyframes share a position: tracking follows the heading.
+TEST_F(RepeatLocalizerTest, MuTrackingFollowsATurnInPlace) {
+  Route turning = route();
+  const Pose2D corner = turning.keyframes[2].pose;
+  for (int k = 3; k < 6; ++k) {
+    turning.keyframes[static_cast<std::size_t>(k)].pose = Pose2D(corner.x, corner.y, corner.yaw + 0.4 * (k - 2));
+  }
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.closed_route_gap = 0.0;
+  auto localizer = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  localizer->setTrackedKeyframe(2);
+  localizer->advanceTrackingTo(Pose2D(corner.x, corner.y, corner.yaw + 0.05));
+  EXPECT_EQ(localizer->trackedKeyframe(), 2);
+  localizer->advanceTrackingTo(Pose2D(corner.x, corner.y, corner.yaw + 0.85));
+  EXPECT_EQ(localizer->trackedKeyframe(), 4);
+}
+
+// μ mode: keyframes the teach run took turning in place give no heading fix (MATH.md §4.5: the
+// translation coupling is large against the near walls of a corner); the first keyframe never
+// counts as one.
+TEST_F(RepeatLocalizerTest, MuModeSkipsTurnKeyframes) {
+  Route turning = route();
+  const Pose2D corner = turning.keyframes[2].pose;
+  turning.keyframes[3].pose = Pose2D(corner.x, corner.y, corner.yaw + 0.4);
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.neighbour_search = 0;
+  options.closed_route_gap = 0.0;
+  auto localizer = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  EXPECT_FALSE(localizer->isTurnKeyframe(0));
+  EXPECT_FALSE(localizer->isTurnKeyframe(1));
+  EXPECT_TRUE(localizer->isTurnKeyframe(2));  // where the teach run started turning
+  EXPECT_TRUE(localizer->isTurnKeyframe(3));
+  const PlanarPose camera = rep103ToCameraAxes(turning.keyframes[2].pose);
+  localizer->setTrackedKeyframe(3);
+  const auto skipped = localizer->localize(wall_->imageAt(camera));
+  ASSERT_FALSE(skipped.isOk());
+  EXPECT_EQ(skipped.status().code(), StatusCode::kNoConsensus);
+  EXPECT_NE(skipped.status().message().find("turned in place"), std::string::npos) << skipped.status().toString();
+  options.mu_skip_turn_keyframes = false;
+  auto all = RepeatLocalizer::create(turning, options);
+  ASSERT_TRUE(all.isOk());
+  all->setTrackedKeyframe(2);
+  EXPECT_TRUE(all->localize(wall_->imageAt(camera)).isOk());
+}
+
+// μ mode with the heading the odometry predicts: only keyframes facing that way are tried.
+TEST_F(RepeatLocalizerTest, MuModeTriesOnlyKeyframesFacingThePredictedHeading) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  options.neighbour_search = 0;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  const Pose2D keyframe = localizer->route().keyframes[2].pose;
+  const PlanarPose camera = rep103ToCameraAxes(keyframe);
+  const PlanarPose turned(camera.x, camera.z, camera.theta + 0.03);
+  const cv::Mat image = wall_->imageAt(turned);
+  localizer->setTrackedKeyframe(2);
+  const auto near = localizer->localize(image, Pose2D(keyframe.x, keyframe.y, keyframe.yaw + 0.03));
+  ASSERT_TRUE(near.isOk()) << near.status().toString();
+  EXPECT_NEAR(near->heading_correction, 0.03, 0.15 * M_PI / 180.0);
+  const auto far = localizer->localize(image, Pose2D(keyframe.x, keyframe.y, keyframe.yaw + 0.5));
+  ASSERT_FALSE(far.isOk());
+  EXPECT_EQ(far.status().code(), StatusCode::kNoConsensus);
+  EXPECT_TRUE(localizer->localize(image, Pose2D(keyframe.x, keyframe.y, NAN)).isOk());  // no usable prior: every keyframe
+  options.mu_max_reference_angle = 0.0;
+  EXPECT_FALSE(RepeatLocalizer::create(route(), options).isOk());
+}
+
+// A loop (last keyframe near the first): tracking wraps from the last keyframe to the first, so
+// a second lap is localized; an open route never wraps.
+TEST_F(RepeatLocalizerTest, ClosedRouteTrackingWrapsAround) {
+  Route loop = route();
+  const Pose2D first = loop.keyframes.front().pose;
+  loop.keyframes.back().pose = Pose2D(first.x - 0.3, first.y, first.yaw);
+  EXPECT_TRUE(isClosedRoute(loop, 1.0));
+  EXPECT_FALSE(isClosedRoute(route(), 1.0));
+  RepeatOptions options;
+  options.mode = RepeatMode::kMu;
+  auto closed = RepeatLocalizer::create(loop, options);
+  ASSERT_TRUE(closed.isOk()) << closed.status().toString();
+  EXPECT_TRUE(closed->closedRoute());
+  closed->setTrackedKeyframe(closed->keyframeCount() - 1);
+  closed->advanceTrackingTo(first);
+  EXPECT_EQ(closed->trackedKeyframe(), 0);
+  options.closed_route_gap = 0.0;  // disabled
+  auto open = RepeatLocalizer::create(loop, options);
+  ASSERT_TRUE(open.isOk());
+  EXPECT_FALSE(open->closedRoute());
+  open->setTrackedKeyframe(open->keyframeCount() - 1);
+  open->advanceTrackingTo(first);
+  EXPECT_EQ(open->trackedKeyframe(), open->keyframeCount() - 1);
+}
+
+TEST_F(RepeatLocalizerTest, ClassicModeBaseline) {
+  RepeatOptions options;
+  options.mode = RepeatMode::kClassic;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  const PlanarPose camera_pose(0.1, 0.35, 0.03);
+  const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_FALSE(estimate->covariance_known);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(camera_pose).x, 0.05);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(camera_pose).y, 0.05);
+}
+
+// Start anywhere on the route: the best-matching keyframe is found.
+TEST_F(RepeatLocalizerTest, GlobalInitialization) {
+  auto localizer = RepeatLocalizer::create(route(), RepeatOptions());
+  ASSERT_TRUE(localizer.isOk());
+  const PlanarPose camera_pose(0.08 * 1.2, 1.2, 0.04 * 1.2);
+  const auto estimate = localizer->initializeGlobally(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_GE(localizer->trackedKeyframe(), 3);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(camera_pose).x, 0.02);
+}
+
+// Every keyframe failing (here: a min_inliers no keyframe reaches after a strong turn) falls back
+// to the last good frame as a temporary reference, flagged degraded; a frame of another scene
+// gives a failure status and no pose.
+TEST_F(RepeatLocalizerTest, LostTrackingUsesTheTemporaryReferenceThenFails) {
+  RepeatOptions options;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.02, 0.05, 0.01))).isOk());
+  // Another wall texture: nothing matches, not even the temporary reference.
+  const cv::Mat other = test_support::makeTexture(640, 480, 99);
+  const auto lost = localizer->localize(other);
+  EXPECT_FALSE(lost.isOk());
+  // Bad images.
+  EXPECT_EQ(localizer->localize(cv::Mat()).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(localizer->localize(cv::Mat(240, 320, CV_8UC1, cv::Scalar(0))).status().code(),
+            StatusCode::kInvalidInput);
+  EXPECT_FALSE(localizer->localize(cv::Mat(480, 640, CV_8UC1, cv::Scalar(90))).isOk());
+}
+
+// Frame A is turned 0.12 rad from keyframe 0, frame B 0.24 rad: with min_inliers between what B
+// and A get against the keyframe, A localizes on the keyframe, B fails there and localizes on A
+// (the temporary reference, the same 0.12 rad apart), flagged degraded.
+TEST_F(RepeatLocalizerTest, DegradedWhenOnlyTheLastFrameMatches) {
+  const PlanarPose a(0.0, 0.0, 0.12), b(0.0, 0.0, 0.24);
+  RepeatOptions probe;
+  probe.neighbour_search = 0;
+  probe.max_degraded_frames = 0;
+  auto permissive = RepeatLocalizer::create(route(), probe);
+  ASSERT_TRUE(permissive.isOk());
+  const auto on_a = permissive->localize(wall_->imageAt(a));
+  permissive->setTrackedKeyframe(0);
+  const auto on_b = permissive->localize(wall_->imageAt(b));
+  ASSERT_TRUE(on_a.isOk() && on_b.isOk());
+  ASSERT_GT(on_a->inliers, on_b->inliers + 20) << "the turn must cost keyframe inliers";
+
+  RepeatOptions strict;
+  strict.neighbour_search = 0;
+  strict.min_inliers = (on_a->inliers + on_b->inliers) / 2;
+  auto localizer = RepeatLocalizer::create(route(), strict);
+  ASSERT_TRUE(localizer.isOk());
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(a)).isOk());
+  localizer->setTrackedKeyframe(0);
+  const auto estimate = localizer->localize(wall_->imageAt(b));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_TRUE(estimate->degraded);
+  EXPECT_EQ(estimate->keyframe, 0);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(b).x, 0.03);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(b).y, 0.03);
+  EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - b.theta), 0.0, 0.01);
+  // With no temporary reference allowed, the same frame is a failure, never a pose.
+  RepeatOptions no_fallback = strict;
+  no_fallback.max_degraded_frames = 0;
+  auto strict_only = RepeatLocalizer::create(route(), no_fallback);
+  ASSERT_TRUE(strict_only->localize(wall_->imageAt(a)).isOk());
+  strict_only->setTrackedKeyframe(0);
+  EXPECT_EQ(strict_only->localize(wall_->imageAt(b)).status().code(), StatusCode::kNoConsensus);
+}
+
+TEST(RepeatLocalizer, RouteWithoutPlanesNeedsMuMode) {
+  Route route;
+  route.directory = "/nonexistent";
+  route.info.camera = test_support::syntheticCalibration();
+  RouteKeyframe k;
+  route.keyframes.push_back(k);
+  EXPECT_EQ(RepeatLocalizer::create(route, RepeatOptions()).status().code(),
+            StatusCode::kInvalidInput);
+  Route empty = route;
+  empty.keyframes.clear();
+  EXPECT_EQ(RepeatLocalizer::create(empty, RepeatOptions()).status().code(), StatusCode::kInvalidInput);
+  RepeatOptions bad;
+  bad.min_inliers = 2;
+  EXPECT_EQ(RepeatLocalizer::create(route, bad).status().code(), StatusCode::kInvalidInput);
+  EXPECT_THROW(repeatModeFromString("fast"), std::invalid_argument);
+}
+
+// Frames 1 cm apart past keyframe 1: with max_tracked_frames 2 the two frames after a detected
+// one take its inliers on by optical flow, the third is detected again; tracked poses are as
+// accurate as detected ones (~1 mm, 0.02° here).
+TEST_F(RepeatLocalizerTest, FramesBetweenDetectionsAreTracked) {
+  RepeatOptions options;
+  options.max_tracked_frames = 2;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  localizer->setTrackedKeyframe(1);
+  const std::vector<bool> tracked{false, true, true, false, true, true, false};
+  for (std::size_t step = 0; step < tracked.size(); ++step) {
+    const double s = 0.31 + 0.01 * static_cast<double>(step);
+    const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.035);
+    const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
+    ASSERT_TRUE(estimate.isOk()) << step << ": " << estimate.status().toString();
+    EXPECT_EQ(estimate->tracked, tracked[step]) << step;
+    EXPECT_EQ(localizer->lastTiming().tracked, tracked[step]) << step;
+    EXPECT_EQ(localizer->lastTiming().references_tried, 1) << step;
+    EXPECT_EQ(estimate->keyframe, 1) << step;
+    EXPECT_FALSE(estimate->degraded);
+    EXPECT_TRUE(estimate->covariance_known);
+    EXPECT_GT(estimate->inliers, 300) << step;
+    const Pose2D truth = basePose(camera_pose);
+    EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.003) << step;
+    EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.003) << step;
+    EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.05 * M_PI / 180.0) << step;
+  }
+}
+
+// A frame turned 0.2 rad (~100 px of image motion) after a detected one: the optical flow loses
+// the points (forward-backward check), the frame is detected instead, and the pose is right.
+TEST_F(RepeatLocalizerTest, TrackingFallsBackToDetection) {
+  auto localizer = RepeatLocalizer::create(route(), RepeatOptions());
+  ASSERT_TRUE(localizer.isOk());
+  localizer->setTrackedKeyframe(1);
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.31, 0.047))).isOk());
+  const PlanarPose turned(0.085, 0.32, 0.247);
+  const auto estimate = localizer->localize(wall_->imageAt(turned));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_FALSE(estimate->tracked);
+  EXPECT_FALSE(localizer->lastTiming().tracked);
+  EXPECT_NEAR(estimate->base_pose.x, basePose(turned).x, 0.005);
+  EXPECT_NEAR(estimate->base_pose.y, basePose(turned).y, 0.005);
+  EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - basePose(turned).yaw), 0.0, 0.1 * M_PI / 180.0);
+  // An image of another wall after a detected frame: tracking and detection fail, no pose.
+  ASSERT_TRUE(localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.33, 0.047))).isOk());
+  EXPECT_FALSE(localizer->localize(test_support::makeTexture(640, 480, 99)).isOk());
+}
+
+TEST_F(RepeatLocalizerTest, TrackingOffDetectsEveryFrame) {
+  RepeatOptions options;
+  options.max_tracked_frames = 0;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  localizer->setTrackedKeyframe(1);
+  for (int step = 0; step < 3; ++step) {
+    const double s = 0.31 + 0.01 * step;
+    const auto estimate = localizer->localize(wall_->imageAt(PlanarPose(0.08 * s + 0.06, s, 0.04 * s + 0.035)));
+    ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+    EXPECT_FALSE(estimate->tracked);
+    EXPECT_FALSE(localizer->lastTiming().tracked);
+    EXPECT_GT(localizer->lastTiming().extraction_ms, 0.0);
+  }
+  RepeatOptions bad;
+  bad.max_tracked_frames = -1;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = RepeatOptions();
+  bad.tracking_tolerance_px = 0.0;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+}

@@ -1,0 +1,247 @@
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "homography_teach_repeat/common/atomic_file.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// Temporary directories, removed when the test program exits.
+std::string temporaryDirectory() {
+  static struct Cleanup {
+    std::vector<std::string> directories;
+    ~Cleanup() {
+      for (const auto& d : directories) {
+        ::chmod(d.c_str(), 0755);
+        std::error_code ignored;
+        std::filesystem::remove_all(d, ignored);
+      }
+    }
+  } cleanup;
+  char pattern[] = "/tmp/htr_route_test_XXXXXX";
+  const char* made = ::mkdtemp(pattern);
+  if (made == nullptr) return std::string();
+  cleanup.directories.emplace_back(made);
+  return made;
+}
+
+RouteInfo info() {
+  RouteInfo i;
+  i.feature_type = FeatureType::kOrb;
+  i.camera.width = 64;
+  i.camera.height = 48;
+  i.camera.fx = i.camera.fy = 50.0;
+  i.camera.cx = 32.0;
+  i.camera.cy = 24.0;
+  i.camera.distortion_model = "plumb_bob";
+  i.camera.distortion = {-0.1, 0.01, 0.0, 0.0, 0.0};
+  i.camera_mount = Pose2D(0.2, 0.0, 0.0);
+  return i;
+}
+
+ImageFeatures features(int n) {
+  ImageFeatures f;
+  f.type = FeatureType::kOrb;
+  for (int k = 0; k < n; ++k) f.keypoints.emplace_back(cv::Point2f(k * 1.5f, k * 0.5f), 7.0f, 30.0f, 0.01f * k, 1);
+  f.descriptors = cv::Mat(n, 32, CV_8U);
+  cv::randu(f.descriptors, 0, 255);
+  return f;
+}
+
+std::vector<VerticalLine> lines() {
+  VerticalLine l;
+  l.x = 12.25;
+  l.top = Eigen::Vector2d(12.0, 3.0);
+  l.bottom = Eigen::Vector2d(12.5, 40.0);
+  l.top_undistorted = Eigen::Vector2d(12.1, 2.9);
+  l.bottom_undistorted = Eigen::Vector2d(12.4, 40.2);
+  l.length = 37.0;
+  l.polarity = EdgePolarity::kDarkRight;
+  l.left_brightness = 200.0;
+  l.right_brightness = 40.0;
+  l.contrast = 90.0;
+  return {l, l};
+}
+
+cv::Mat image(int value) { return cv::Mat(48, 64, CV_8UC1, cv::Scalar(value)); }
+
+Route writeRoute(const std::string& dir, int keyframes) {
+  auto writer = RouteWriter::create(dir, info());
+  EXPECT_TRUE(writer.isOk()) << writer.status().toString();
+  for (int k = 0; k < keyframes; ++k) {
+    EXPECT_TRUE(writer->addKeyframe(image(10 * k), features(5 + k), lines(), Pose2D(k, 0.5 * k, 0.1 * k), 100.0 + k)
+                    .isOk());
+  }
+  return writer->route();
+}
+
+}  // namespace
+
+TEST(Route, RoundTrip) {
+  const std::string dir = temporaryDirectory();
+  auto writer = RouteWriter::create(dir, info());
+  ASSERT_TRUE(writer.isOk());
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(writer->addKeyframe(image(10 * k), features(5 + k), lines(), Pose2D(k, 0.5 * k, 0.1 * k), 100.0 + k)
+                    .isOk());
+  }
+  ScenePlane plane;
+  plane.normal = Eigen::Vector3d(0.6, 0.0, 0.8);
+  plane.distance = 4.5;
+  ASSERT_TRUE(writer->setPlanes({plane, std::nullopt, plane}, 4.5).isOk());
+
+  const auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  EXPECT_EQ(route->info.feature_type, FeatureType::kOrb);
+  EXPECT_EQ(route->info.camera.distortion_model, "plumb_bob");
+  EXPECT_EQ(route->info.camera.distortion.size(), 5u);
+  EXPECT_DOUBLE_EQ(route->info.first_plane_distance, 4.5);
+  ASSERT_EQ(route->keyframes.size(), 3u);
+  EXPECT_DOUBLE_EQ(route->keyframes[2].pose.x, 2.0);
+  EXPECT_DOUBLE_EQ(route->keyframes[2].stamp, 102.0);
+  ASSERT_TRUE(route->keyframes[0].plane.has_value());
+  EXPECT_FALSE(route->keyframes[1].plane.has_value());
+  EXPECT_NEAR(route->keyframes[2].plane->distance, 4.5, 1e-12);
+
+  const auto img = loadKeyframeImage(*route, 2);
+  ASSERT_TRUE(img.isOk());
+  EXPECT_EQ(img->at<uint8_t>(5, 5), 20);
+  const auto f = loadKeyframeFeatures(*route, 1);
+  ASSERT_TRUE(f.isOk()) << f.status().toString();
+  EXPECT_EQ(f->keypoints.size(), 6u);
+  EXPECT_EQ(cv::norm(f->descriptors, features(6).descriptors, cv::NORM_INF) >= 0, true);
+  const auto l = loadKeyframeLines(*route, 0);
+  ASSERT_TRUE(l.isOk()) << l.status().toString();
+  ASSERT_EQ(l->size(), 2u);
+  EXPECT_DOUBLE_EQ((*l)[0].x, 12.25);
+  EXPECT_EQ((*l)[0].polarity, EdgePolarity::kDarkRight);
+  EXPECT_EQ(loadKeyframeLines(*route, 7).status().code(), StatusCode::kInvalidInput);
+}
+
+// A crash while writing keyframe 3: its files (or a temporary) exist but the index was not
+// rewritten. The route loads with the keyframes written before.
+TEST(Route, CrashLosesAtMostTheLastKeyframe) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 3);
+  std::ofstream(dir + "/keyframes/000003.png") << "partial";
+  std::ofstream(dir + "/route.yaml.tmp.12345") << "format_version: 1\nkeyf";
+  const auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  EXPECT_EQ(route->keyframes.size(), 3u);
+}
+
+TEST(Route, CorruptOrMissingFilesNameTheFile) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 2);
+  // Missing route.
+  auto missing = loadRoute(dir + "/nowhere");
+  EXPECT_EQ(missing.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(missing.status().message().find("route.yaml not found"), std::string::npos);
+  // Truncated index.
+  const auto index = readWholeFile(dir + "/route.yaml");
+  ASSERT_TRUE(index.isOk());
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", index->substr(0, index->size() / 2)).isOk());
+  auto truncated = loadRoute(dir);
+  EXPECT_EQ(truncated.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(truncated.status().message().find("route.yaml"), std::string::npos)
+      << truncated.status().message();
+  // Unknown version.
+  std::string newer = *index;
+  newer.replace(newer.find("format_version: 1"), 17, "format_version: 7");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", newer).isOk());
+  auto version = loadRoute(dir);
+  EXPECT_NE(version.status().message().find("unknown format_version 7"), std::string::npos);
+  // A keyframe file missing.
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", *index).isOk());
+  ASSERT_EQ(::unlink((dir + "/keyframes/000001.lines.yml").c_str()), 0);
+  auto lost = loadRoute(dir);
+  EXPECT_NE(lost.status().message().find("000001.lines.yml"), std::string::npos)
+      << lost.status().message();
+  // A corrupt features file.
+  std::ofstream(dir + "/keyframes/000001.lines.yml") << "lines: [{x: 1}]\n";
+  const auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  auto bad_lines = loadKeyframeLines(*route, 1);
+  EXPECT_NE(bad_lines.status().message().find("000001.lines.yml"), std::string::npos);
+  std::ofstream(dir + "/keyframes/000000.features.yml") << "%YAML:1.0\nkeypoints: [1, 2";
+  auto bad_features = loadKeyframeFeatures(*route, 0);
+  EXPECT_EQ(bad_features.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(bad_features.status().message().find("000000.features.yml"), std::string::npos);
+}
+
+TEST(Route, WriterRefusesToOverwriteAndBadInput) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 1);
+  EXPECT_EQ(RouteWriter::create(dir, info()).status().code(), StatusCode::kInvalidInput);
+  auto writer = RouteWriter::create(dir, info(), /*overwrite=*/true);
+  ASSERT_TRUE(writer.isOk());
+  EXPECT_EQ(writer->addKeyframe(cv::Mat(), features(3), {}, Pose2D(), 1.0).code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(writer->addKeyframe(image(1), features(3), {}, Pose2D(std::nan(""), 0, 0), 1.0).code(),
+            StatusCode::kInvalidInput);
+  EXPECT_EQ(writer->setPlanes({std::nullopt, std::nullopt}, 1.0).code(), StatusCode::kInvalidInput);
+  RouteInfo bad = info();
+  bad.camera.fx = 0.0;
+  EXPECT_EQ(RouteWriter::create(temporaryDirectory(), bad).status().code(), StatusCode::kInvalidInput);
+}
+
+TEST(Route, ReadOnlyDirectoryIsAClearErrorAtStart) {
+  if (::geteuid() == 0) GTEST_SKIP() << "running as root: permissions do not stop writes";
+  const std::string dir = temporaryDirectory();
+  ASSERT_EQ(::mkdir((dir + "/keyframes").c_str(), 0755), 0);
+  ASSERT_EQ(::chmod(dir.c_str(), 0555), 0);
+  ASSERT_EQ(::chmod((dir + "/keyframes").c_str(), 0555), 0);
+  const auto writer = RouteWriter::create(dir, info());
+  EXPECT_EQ(writer.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(writer.status().message().find(dir), std::string::npos) << writer.status().message();
+  const Status checked = checkRouteDirectoryWritable(dir, /*overwrite=*/true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("not writable"), std::string::npos) << checked.message();
+  ::chmod(dir.c_str(), 0755);
+}
+
+// A route directory that cannot be created (its parent is a file): a clear error at start, also
+// when running as root.
+TEST(Route, UncreatableDirectoryIsAClearErrorAtStart) {
+  const std::string dir = temporaryDirectory();
+  std::ofstream(dir + "/plain_file") << "x";
+  const auto writer = RouteWriter::create(dir + "/plain_file/route", info());
+  EXPECT_EQ(writer.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(writer.status().message().find("plain_file/route"), std::string::npos)
+      << writer.status().message();
+  const Status checked = checkRouteDirectoryWritable(dir + "/plain_file/route", true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("plain_file/route"), std::string::npos) << checked.message();
+}
+
+// An existing directory that refuses new files to everyone, root included (procfs): the probe
+// write fails and the message names the directory.
+TEST(Route, DirectoryTheKernelRefusesIsNotWritable) {
+  const Status checked = checkRouteDirectoryWritable("/proc/1", true);
+  EXPECT_EQ(checked.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(checked.message().find("/proc/1"), std::string::npos) << checked.message();
+}
+
+TEST(Route, WritableDirectoryPassesTheCheckAndKeepsNoProbe) {
+  const std::string dir = temporaryDirectory() + "/new_route";
+  EXPECT_TRUE(checkRouteDirectoryWritable(dir, false).isOk());
+  std::ifstream probe(dir + "/keyframes/.write_probe");
+  EXPECT_FALSE(probe.good());
+  auto writer = RouteWriter::create(dir, info());
+  ASSERT_TRUE(writer.isOk()) << writer.status().toString();
+  const Status existing = checkRouteDirectoryWritable(dir, false);
+  EXPECT_EQ(existing.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(existing.message().find("refusing to overwrite"), std::string::npos) << existing.message();
+  EXPECT_TRUE(checkRouteDirectoryWritable(dir, true).isOk());
+}
