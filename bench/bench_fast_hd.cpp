@@ -28,7 +28,7 @@ htr::PinholeCamera camera() {
   return htr::PinholeCamera(c);
 }
 
-// Scene A of MATH.md §3.5 with 0.5 px noise.
+// Scene A of docs/math.md §3.5 with 0.5 px noise.
 struct Scene {
   htr::ScenePlane plane;
   htr::PlanarPose pose{0.6, -1.4, -0.25};
@@ -96,7 +96,7 @@ void BM_PlanarHD(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanarHD);
 
-// Fast-HD solve + covariance (MATH.md §3.4) given the DLT of the matches.
+// Fast-HD solve + covariance (docs/math.md §3.4) given the DLT of the matches.
 void BM_FastHD_SolveAndCovariance(benchmark::State& state) {
   const Scene scene(static_cast<int>(state.range(0)));
   const htr::PinholeCamera cam = camera();

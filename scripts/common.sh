@@ -1,10 +1,9 @@
 # Shared set-up of scripts/test and scripts/demo (sourced, not run).
 # - installs the Debian packages the package needs (idempotent: apt runs only if one is missing);
-# - works around the pyenv pitfall (../shared/ros-on-debian.md): ROS's CMake helpers need
-#   /usr/bin/python3, not a pyenv shim that comes first on PATH;
-# - configures and builds the catkin package with plain CMake, tests, benchmarks and evaluation
-#   programs on (the repository root is the
-#   package; the devel space is BUILD_DIR/devel).
+# - works around the pyenv pitfall: ROS's CMake helpers need /usr/bin/python3 (with the ROS Python
+#   modules), not a pyenv shim that comes first on PATH;
+# - configures and builds the catkin package with plain CMake, with the tests, benchmarks and
+#   evaluation programs (the repository root is the package; the devel space is BUILD_DIR/devel).
 
 HTR_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 export PATH=/usr/bin:$PATH

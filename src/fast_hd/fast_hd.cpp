@@ -17,7 +17,7 @@ Expected<FastHdSolution> solveFastHd(const Eigen::Matrix3d& H, const PinholeCame
   const double fu = camera.fx();
   const double u0 = camera.cx();
   const double v0 = camera.cy();
-  // MATH.md §1.3: κ = H(2,2) − v0 H(3,2) (1-based) = H[1][1] − v0 H[2][1].
+  // docs/math.md §1.3: κ = H(2,2) − v0 H(3,2) (1-based) = H[1][1] − v0 H[2][1].
   const double kappa = H(1, 1) - v0 * H(2, 1);
   if (!(std::abs(kappa) > kKappaRelativeTolerance * H.norm())) {
     return Status(StatusCode::kDegenerate,
@@ -25,7 +25,7 @@ Expected<FastHdSolution> solveFastHd(const Eigen::Matrix3d& H, const PinholeCame
   }
   const Eigen::Matrix3d Hn = H / kappa;
 
-  // MATH.md §1.4, corrected eq. (4).
+  // docs/math.md §1.4, corrected eq. (4).
   const double c11 = Hn(0, 0) - u0 * Hn(2, 0);
   const double c31 = fu * Hn(2, 0);
   const double c33 = u0 * Hn(2, 0) + v0 * Hn(2, 1) + Hn(2, 2);
@@ -33,7 +33,7 @@ Expected<FastHdSolution> solveFastHd(const Eigen::Matrix3d& H, const PinholeCame
   const double d1 = plane.distance;
   const double b1 = d1 * c11, b2 = d1 * c13, b3 = d1 * c31, b4 = d1 * c33;
 
-  // Closed-form inverse of Π (MATH.md §1.4).
+  // Closed-form inverse of Π (docs/math.md §1.4).
   const double nx = plane.normal.x();
   const double nz = plane.normal.z();
   const double n_squared = nx * nx + nz * nz;
@@ -45,7 +45,7 @@ Expected<FastHdSolution> solveFastHd(const Eigen::Matrix3d& H, const PinholeCame
   solution.cos_theta21 = (b1 + nx * solution.x21) / d1;
   const double theta21 = std::atan2(solution.sin_theta21, solution.cos_theta21);
 
-  // MATH.md §1.6: pose of camera 2 in the reference frame.
+  // docs/math.md §1.6: pose of camera 2 in the reference frame.
   const double c = std::cos(theta21);
   const double s = std::sin(theta21);
   solution.pose = PlanarPose(c * solution.x21 + s * solution.z21,

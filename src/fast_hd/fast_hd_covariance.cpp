@@ -14,7 +14,7 @@ namespace {
 using Matrix24d = Eigen::Matrix<double, 2, 4>;
 using Matrix92d = Eigen::Matrix<double, 9, 2>;
 
-// The two DLT rows of one match (MATH.md §3.1), transposed: columns are the rows of Â_i.
+// The two DLT rows of one match (docs/math.md §3.1), transposed: columns are the rows of Â_i.
 Matrix92d dltRowsTransposed(const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
   Matrix92d rows;
   rows.col(0) << 0.0, 0.0, 0.0, -p, q.y() * p;
@@ -22,7 +22,7 @@ Matrix92d dltRowsTransposed(const Eigen::Vector3d& p, const Eigen::Vector3d& q) 
   return rows;
 }
 
-// B_i = ∂(Â_i ĥ)/∂(û, v̂, û', v̂') for one match (MATH.md §3.4 step 1), Ĥ 0-based.
+// B_i = ∂(Â_i ĥ)/∂(û, v̂, û', v̂') for one match (docs/math.md §3.4 step 1), Ĥ 0-based.
 Matrix24d dltResidualJacobian(const Eigen::Matrix3d& H, const Eigen::Vector3d& p,
                               const Eigen::Vector3d& q) {
   const double h3p = H.row(2).dot(p);
@@ -57,7 +57,7 @@ Eigen::Matrix<double, 9, 9> negativePseudoInverseFactor(const NormalizedDlt& dlt
 }  // namespace
 
 Eigen::Matrix<double, 3, 4> fastHdPoseMapJacobian(const FastHdSolution& solution) {
-  // MATH.md §3.3: corrected eq. 16 (atan2) and the C-version of eq. 14 (pose map).
+  // docs/math.md §3.3: corrected eq. 16 (atan2) and the C-version of eq. 14 (pose map).
   const double S = solution.sin_theta21;
   const double C = solution.cos_theta21;
   const double r2 = S * S + C * C;
@@ -107,7 +107,7 @@ std::array<Eigen::Matrix4d, 3> fastHdPoseMapHessians(const FastHdSolution& solut
 
 namespace {
 
-// The two factors of J_g (MATH.md §3.4 step 2): s* = (x21, z21, S, C) from h, and the pose map
+// The two factors of J_g (docs/math.md §3.4 step 2): s* = (x21, z21, S, C) from h, and the pose map
 // g(s*) = (Cx, Cz, θ12) with θ21 = atan2(S, C).
 struct FastHdJacobianFactors {
   Eigen::Matrix<double, 4, 9> solution_jacobian;  // ∂s*/∂h = Π⁻¹ (d1 Jb) (I9 − hn e_κᵀ)/κ
@@ -137,7 +137,7 @@ Expected<FastHdJacobianFactors> fastHdJacobianFactors(const Eigen::Matrix3d& H,
   const Eigen::Matrix<double, 9, 9> d_hn =
       (Eigen::Matrix<double, 9, 9>::Identity() - (h / kappa) * e_kappa) / kappa;
 
-  // ∂b/∂hn = d1 Jb (MATH.md §3.3 corrected eq. 17 plus the H(3,2) column).
+  // ∂b/∂hn = d1 Jb (docs/math.md §3.3 corrected eq. 17 plus the H(3,2) column).
   Eigen::Matrix<double, 4, 9> jb = Eigen::Matrix<double, 4, 9>::Zero();
   jb(0, 0) = 1.0;
   jb(0, 6) = -u0;

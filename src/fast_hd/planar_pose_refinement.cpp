@@ -67,7 +67,7 @@ struct MatchLinearization {
   Eigen::Matrix4d measurement_jacobian;  // ∂r/∂(u, v, u', v')
 };
 
-// The algebraic DLT residual ε = A_i h of one match for a homography G (MATH.md §3.1), linear in
+// The algebraic DLT residual ε = A_i h of one match for a homography G (docs/math.md §3.1), linear in
 // G; used with the model H and with its derivatives dH_k.
 Eigen::Vector2d algebraicResidual(const Eigen::Matrix3d& G, const Eigen::Vector3d& p,
                                   const Eigen::Vector2d& current) {
@@ -75,7 +75,7 @@ Eigen::Vector2d algebraicResidual(const Eigen::Matrix3d& G, const Eigen::Vector3
   return Eigen::Vector2d(-G.row(1).dot(p) + current.y() * g3p, G.row(0).dot(p) - current.x() * g3p);
 }
 
-// Sampson: r = W ε with W = (B Bᵀ)^(-1/2) (Cholesky), B = ∂ε/∂(u, v, u', v') (MATH.md §3.4):
+// Sampson: r = W ε with W = (B Bᵀ)^(-1/2) (Cholesky), B = ∂ε/∂(u, v, u', v') (docs/math.md §3.4):
 // the first-order geometric distance in the joint image space, the ML cost for iid pixel noise
 // in both images. W is frozen within a Gauss-Newton step (its derivative is second order).
 bool linearizeSampson(const ModelHomography& model, const PointMatch& match,

@@ -147,7 +147,7 @@ Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
   }
   const Eigen::FullPivLU<Eigen::Matrix3d> lu(H_first / kappa1);
   if (!lu.isInvertible()) return Status(StatusCode::kDegenerate, "first homography is singular");
-  // MATH.md §2.3: H = (H¹)⁻¹ H² = I + v pᵀ, v = K C d1¹/d2¹.
+  // docs/math.md §2.3: H = (H¹)⁻¹ H² = I + v pᵀ, v = K C d1¹/d2¹.
   const Eigen::Matrix3d homology = lu.inverse() * (H_second / kappa2);
   const double d1 = first_plane.distance;
   const double d2 = d1 - first_plane.normal.dot(C);
@@ -155,7 +155,7 @@ Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
     return Status(StatusCode::kDegenerate, "the second camera lies on the first plane");
   }
   const Eigen::Vector3d v = camera.K() * C * (d1 / d2);
-  // MATH.md §2.4: pᵀ = vᵀ(H − I)/(vᵀv), m2 = n¹/d¹ − Kᵀp, n² = m2/|m2|, d² = 1/|m2|.
+  // docs/math.md §2.4: pᵀ = vᵀ(H − I)/(vᵀv), m2 = n¹/d¹ − Kᵀp, n² = m2/|m2|, d² = 1/|m2|.
   const Eigen::Vector3d p =
       ((homology - Eigen::Matrix3d::Identity()).transpose() * v) / v.squaredNorm();
   const Eigen::Vector3d m2 = first_plane.normal / d1 - camera.K().transpose() * p;

@@ -62,7 +62,7 @@ Eigen::Vector2d PlanarPose::transformPoint(const Eigen::Vector2d& point_xz) cons
 }
 
 Eigen::Matrix3d PlanarPose::rotation21() const {
-  // Ry(θ21) = [[cos, 0, −sin], [0, 1, 0], [sin, 0, cos]] with θ21 = −theta (MATH.md §1.1).
+  // Ry(θ21) = [[cos, 0, −sin], [0, 1, 0], [sin, 0, cos]] with θ21 = −theta (docs/math.md §1.1).
   const double c = std::cos(-theta);
   const double s = std::sin(-theta);
   Eigen::Matrix3d r;
@@ -83,7 +83,7 @@ bool PlanarPose::isFinite() const {
 }
 
 // Camera axes x right, z forward; REP-103 axes x forward, y left. The yaw of both conventions is
-// counter-clockwise seen from above (MATH.md §1.1: θ12 turns the optical axis towards −x = left).
+// counter-clockwise seen from above (docs/math.md §1.1: θ12 turns the optical axis towards −x = left).
 Pose2D cameraAxesToRep103(const PlanarPose& pose) { return Pose2D(pose.z, -pose.x, pose.theta); }
 
 PlanarPose rep103ToCameraAxes(const Pose2D& pose) { return PlanarPose(-pose.y, pose.x, pose.yaw); }

@@ -89,7 +89,7 @@ Expected<std::vector<HomographyDecomposition>> decomposeHomographyPlanar(
     const std::vector<Eigen::Vector2d>& reference_pixels) {
   if (!H.allFinite()) return Status(StatusCode::kNotFinite, "homography has NaN/Inf entries");
   Eigen::Matrix3d m = camera.Kinverse() * H * camera.K();
-  // At the true scale row 2 of K⁻¹HK is (0, 1, 0) (MATH.md §1.3): κ = m(1,1).
+  // At the true scale row 2 of K⁻¹HK is (0, 1, 0) (docs/math.md §1.3): κ = m(1,1).
   if (!(std::abs(m(1, 1)) > 1e-12 * m.norm())) {
     return Status(StatusCode::kDegenerate, "κ is zero: not a homography of planar motion");
   }

@@ -14,7 +14,7 @@ namespace {
 using Vector9d = Eigen::Matrix<double, 9, 1>;
 using Matrix29d = Eigen::Matrix<double, 2, 9>;
 
-// DLT rows of one match (MATH.md §3.1).
+// DLT rows of one match (docs/math.md §3.1).
 Matrix29d dltRows(const Eigen::Vector3d& p, const Eigen::Vector2d& q) {
   Matrix29d a;
   a << 0.0, 0.0, 0.0, -p.transpose(), q.y() * p.transpose(), p.transpose(), 0.0, 0.0, 0.0,
@@ -22,7 +22,7 @@ Matrix29d dltRows(const Eigen::Vector3d& p, const Eigen::Vector2d& q) {
   return a;
 }
 
-// Whitening W = L⁻¹ with B Bᵀ = L Lᵀ (B of MATH.md §3.4 for h); false if B Bᵀ is singular.
+// Whitening W = L⁻¹ with B Bᵀ = L Lᵀ (B of docs/math.md §3.4 for h); false if B Bᵀ is singular.
 bool sampsonWhitening(const Vector9d& h, const Eigen::Vector3d& p, const Eigen::Vector2d& q,
                       Eigen::Matrix2d* W) {
   const double h3p = h(6) * p.x() + h(7) * p.y() + h(8);

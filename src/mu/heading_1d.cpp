@@ -63,7 +63,7 @@ Expected<Eigen::Matrix2d> planeHomography1d(const PlanarPose& current, const Eig
   }
   const double c = std::cos(current.theta), s = std::sin(current.theta);
   Eigen::Matrix2d R;
-  R << c, s, -s, c;  // X2 = R X1 + t (MATH.md §4.1)
+  R << c, s, -s, c;  // X2 = R X1 + t (docs/math.md §4.1)
   const Eigen::Vector2d t = -R * Eigen::Vector2d(current.x, current.z);
   const Eigen::Matrix2d M = R + t * normal_xz.transpose() / distance;
   Eigen::Matrix2d H;
@@ -96,7 +96,7 @@ Expected<double> headingMagnitudeFromEigenvalues(const Eigen::Matrix2d& H) {
   if (!(det > 0.0)) {
     return Status(StatusCode::kDegenerate, "det H <= 0: not a rotation-like 1D homography");
   }
-  // Similarity invariant: independent of f and x0 (MATH.md §4.6).
+  // Similarity invariant: independent of f and x0 (docs/math.md §4.6).
   const double c = Hs.trace() / (2.0 * std::sqrt(det));
   return std::acos(std::clamp(c, -1.0, 1.0));
 }
@@ -126,7 +126,7 @@ Expected<std::vector<CompleteMotion1d>> completeMotion1d(const Eigen::Matrix2d& 
   if (votes < 0.0) Hc = -Hc;
   const double det = Hc.determinant();
   if (!(det > 0.0)) return Status(StatusCode::kDegenerate, "det of the calibrated 1D H <= 0");
-  // True scale: det Hc = d2/d1 (MATH.md §4.7); det = 1 when the ratio is unknown.
+  // True scale: det Hc = d2/d1 (docs/math.md §4.7); det = 1 when the ratio is unknown.
   Hc *= std::sqrt(depth_ratio.value_or(1.0) / det);
   // 2. SVD, λi = σi².
   const Eigen::JacobiSVD<Eigen::Matrix2d> svd(Hc, Eigen::ComputeFullU | Eigen::ComputeFullV);

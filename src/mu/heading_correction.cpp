@@ -25,7 +25,7 @@ Expected<HeadingCorrection> HeadingCorrector::estimate(const std::vector<Vertica
                                                       const std::vector<VerticalLine>& current,
                                                       double predicted_theta) const {
   if (!std::isfinite(predicted_theta)) predicted_theta = 0.0;
-  // A pure rotation (MATH.md §4.4 with t = 0): x' = f (c x + f s)/(−s x + f c), centred.
+  // A pure rotation (docs/math.md §4.4 with t = 0): x' = f (c x + f s)/(−s x + f c), centred.
   const double c = std::cos(predicted_theta), s = std::sin(predicted_theta), f = camera_.f;
   Eigen::Matrix2d rotation;
   rotation << c, f * s, -s / f, c;

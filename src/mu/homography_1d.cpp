@@ -69,7 +69,7 @@ Expected<Eigen::Matrix2d> estimateHomography1dDlt(const std::vector<LineCorrespo
   for (std::size_t i = 0; i < n; ++i) {
     const double a = t1.scale * (x1[i] - t1.centre);
     const double b = t2.scale * (x2[i] - t2.centre);
-    M.row(static_cast<Eigen::Index>(i)) << a, 1.0, -a * b, -b;  // MATH.md §4.2
+    M.row(static_cast<Eigen::Index>(i)) << a, 1.0, -a * b, -b;  // docs/math.md §4.2
   }
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeFullV);
   const Eigen::VectorXd& s = svd.singularValues();

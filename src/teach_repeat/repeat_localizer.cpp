@@ -70,7 +70,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
   auto frame = estimator_->observe(image, gray);
   if (!frame) return frame.status();
   timing_.extraction_ms = millisecondsSince(extraction_start);
-  return localizeAgainstCandidates(std::move(*frame), gray, predicted_pose, options().neighbour_search,
+  return localizeAgainstCandidates(*frame, gray, predicted_pose, options().neighbour_search,
                                    options().max_degraded_frames);
 }
 

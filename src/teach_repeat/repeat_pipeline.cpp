@@ -147,7 +147,7 @@ Status RepeatPipeline::correctMuFilter(double stamp, const RepeatEstimate& estim
   if (aligning) {
     // The repeat run starts at the keyframe the robot was placed at (start_keyframe, or the best
     // match of the global initialization), with the heading vision measures there.
-    const Status aligned = mu_filter_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
+    Status aligned = mu_filter_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
     if (!aligned.isOk()) return aligned;
   }
   if (estimate.degraded) {
@@ -190,7 +190,7 @@ Expected<Pose2D> RepeatPipeline::unaidedMuPose(const Pose2D& odom) {
     return Status(StatusCode::kNoConsensus,
                   "mu mode: no heading fix in this frame and mu_max_unaided_distance is 0 (no pose from the odometry alone)");
   }
-  const auto pose = mu_filter_.routePose(odom);
+  auto pose = mu_filter_.routePose(odom);
   if (!pose) return pose.status();
   if (mu_filter_.distanceSinceFix() > options_.mu_max_unaided_distance) {
     char message[160];

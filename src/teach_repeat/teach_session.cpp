@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 
+#include "homography_teach_repeat/homography/image_registration.h"
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -84,39 +86,26 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   }
   const CameraMount mount(route.info.camera_mount.x, route.info.camera_mount.y,
                           route.info.camera_mount.yaw);
-  // Consecutive pairs until the first failure: the propagation (MATH.md §2.2) needs every link.
+  // Consecutive pairs until the first failure: the propagation (docs/math.md §2.2) needs every link.
   std::vector<ReferencePair> pairs;
   for (std::size_t k = 0; k + 1 < route.keyframes.size(); ++k) {
-    const auto dmatches =
-        matchFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching);
+    const auto registered = registerFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching,
+                                             options_.robust, &camera_);
     ReferencePair pair;
     pair.has_odometry = true;
     pair.odometry_motion =
         mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
-    if (!dmatches) {
-      report.messages.push_back("pair " + std::to_string(k) + ": " + dmatches.status().toString());
+    if (!registered) {
+      report.messages.push_back("pair " + std::to_string(k) + ": " + registered.status().toString());
       if (!options_.planes_from_odometry) break;
       pair.has_homography = false;
       pairs.push_back(pair);
       continue;
     }
-    PointMatches matches = toPointMatches(keyframe_features_[k], keyframe_features_[k + 1], *dmatches);
-    for (auto& m : matches) {
-      const cv::Point2d a = camera_.undistortPixel({m.reference.x(), m.reference.y()});
-      const cv::Point2d b = camera_.undistortPixel({m.current.x(), m.current.y()});
-      m.reference = Eigen::Vector2d(a.x, a.y);
-      m.current = Eigen::Vector2d(b.x, b.y);
+    pair.H_next_from_current = registered->homography.H;
+    for (const int i : registered->homography.inliers) {
+      pair.reference_pixels.push_back(registered->matches[static_cast<std::size_t>(i)].reference);
     }
-    const auto robust = estimateHomographyRobust(matches, options_.robust);
-    if (!robust) {
-      report.messages.push_back("pair " + std::to_string(k) + ": " + robust.status().toString());
-      if (!options_.planes_from_odometry) break;
-      pair.has_homography = false;
-      pairs.push_back(pair);
-      continue;
-    }
-    pair.H_next_from_current = robust->H;
-    for (const int i : robust->inliers) pair.reference_pixels.push_back(matches[i].reference);
     pairs.push_back(pair);
   }
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());

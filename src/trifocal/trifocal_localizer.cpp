@@ -9,7 +9,7 @@
 namespace homography_teach_repeat {
 namespace {
 
-// Camera pose (MATH.md §1.1 axes, the frame of trifocal_motion.h) of view `pose` of base_link
+// Camera pose (docs/math.md §1.1 axes, the frame of trifocal_motion.h) of view `pose` of base_link
 // relative to base_link at `origin`.
 PlanarPose cameraRelative(const CameraMount& mount, const Pose2D& origin, const Pose2D& pose) {
   return mount.baseToCamera(origin.inverse().compose(pose));
@@ -83,7 +83,7 @@ Expected<TrifocalLocalization> TrifocalLocalizer::localize(const TrifocalView& f
       (first_to_second && !first_to_second->isFinite())) {
     return Status(StatusCode::kInvalidInput, "trifocal localization: odometry of a view is not finite");
   }
-  // The prior (MATH.md §5.6: it picks the candidate and gives the metric scale): odometry, with
+  // The prior (docs/math.md §5.6: it picks the candidate and gives the metric scale): odometry, with
   // view 2 from `first_to_second` when given (view 3 then follows it by odometry from view 2).
   const Pose2D second_pose = first_to_second ? first.odometry.compose(*first_to_second) : second.odometry;
   const Pose2D third_pose = second_pose.compose(second.odometry.inverse().compose(third.odometry));

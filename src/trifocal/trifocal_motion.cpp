@@ -45,7 +45,7 @@ const Bearing& viewBearing(const BearingTriplet& t, int view) {
   return view == 1 ? t.first : (view == 2 ? t.second : t.third);
 }
 
-// Homogeneous landmark (MATH.md §5.7) and the smallest two singular values over the largest.
+// Homogeneous landmark (docs/math.md §5.7) and the smallest two singular values over the largest.
 Eigen::Vector3d triangulateHomogeneous(const TrifocalMotion& motion, const BearingTriplet& t, double* rank_gap) {
   Eigen::Matrix3d A;
   for (int view = 1; view <= 3; ++view) {
@@ -125,7 +125,7 @@ Expected<std::vector<TrifocalMotionCandidate>> motionCandidates(const TrifocalTe
       return Status(StatusCode::kInvalidInput, "a bearing triplet is not finite");
     }
   }
-  // MATH.md §5.6.
+  // docs/math.md §5.6.
   const Complex I(0.0, 1.0);
   const Complex a(T(1), T(5)), b(T(3), T(7)), c(T(4), -T(0)), d(T(6), -T(2));
   const Complex P = a - c, Q = d - b;

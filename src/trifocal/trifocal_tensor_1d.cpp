@@ -50,7 +50,7 @@ Eigen::Matrix<double, 1, 8> trilinearRow(const BearingTriplet& t) {
   return row;
 }
 
-// Eq. 7 (MATH.md §5.3): eq. 2 with T221 = T111 − T122 − T212 and T222 = T112 + T121 + T211
+// Eq. 7 (docs/math.md §5.3): eq. 2 with T221 = T111 − T122 − T212 and T222 = T112 + T121 + T211
 // substituted; unknowns (T111, T112, T121, T122, T211, T212).
 Eigen::Matrix<double, 1, 6> tt5Row(const BearingTriplet& t) {
   const double u1 = t.first(0), u2 = t.first(1), a1 = t.second(0), a2 = t.second(1), b1 = t.third(0),
@@ -159,7 +159,7 @@ double trilinearResidual(const TrifocalTensor1d& T, const BearingTriplet& triple
 }
 
 Bearing transferBearing(const TrifocalTensor1d& T, const BearingTriplet& triplet, int view) {
-  // MATH.md §5.4 with T_i = [[T_i11, T_i12], [T_i21, T_i22]].
+  // docs/math.md §5.4 with T_i = [[T_i11, T_i12], [T_i21, T_i22]].
   const Bearing& u = triplet.first;
   const Bearing& a = triplet.second;
   const Bearing& b = triplet.third;
@@ -279,7 +279,7 @@ double bearingHomographyError(const Eigen::Matrix2d& H, const Bearing& from, con
 
 namespace {
 
-// Eq. 12 (MATH.md §5.5): B_i = H'ᵀ T_i H'', B_i(a, b) = Σ_jk H'(j, a) T_ijk H''(k, b); the plane
+// Eq. 12 (docs/math.md §5.5): B_i = H'ᵀ T_i H'', B_i(a, b) = Σ_jk H'(j, a) T_ijk H''(k, b); the plane
 // gives B_1(1,1) = 0, B_1(1,2) + B_1(2,1) + B_2(1,1) = 0, B_1(2,2) + B_2(1,2) + B_2(2,1) = 0 and
 // B_2(2,2) = 0 — four rows on T, each scaled to unit norm. kDegenerate when one vanishes.
 Expected<Eigen::Matrix<double, 4, 8>> planeConstraintRows(const Eigen::Matrix2d& H_second,

@@ -16,13 +16,13 @@ PinholeCamera camera() {
   c.width = 640;
   c.height = 480;
   c.fx = 520.0;
-  c.fy = 515.0;  // fv differs from fu: Fast-HD never needs it (MATH.md §1.1)
+  c.fy = 515.0;  // fv differs from fu: Fast-HD never needs it (docs/math.md §1.1)
   c.cx = 318.0;
   c.cy = 243.0;  // v0 ≠ 0: the printed normalisation by H(2,2) would fail here (§1.3)
   return PinholeCamera(c);
 }
 
-// n = (sinα, cosα sinβ, cosα cosβ) (MATH.md §1.1).
+// n = (sinα, cosα sinβ, cosα cosβ) (docs/math.md §1.1).
 ScenePlane plane(double alpha, double beta, double distance) {
   ScenePlane p;
   p.normal = Eigen::Vector3d(std::sin(alpha), std::cos(alpha) * std::sin(beta),
@@ -39,7 +39,7 @@ void expectPose(const PlanarPose& actual, const PlanarPose& expected, double tol
 
 }  // namespace
 
-// Scene A of MATH.md §3.5: θ21 = 0.25, C = (0.6, −1.4), α = 0.35, β = 0.2, d1 = 5.
+// Scene A of docs/math.md §3.5: θ21 = 0.25, C = (0.6, −1.4), α = 0.35, β = 0.2, d1 = 5.
 TEST(FastHd, ExactOnMathScene) {
   const PlanarPose truth(0.6, -1.4, -0.25);
   const ScenePlane p = plane(0.35, 0.2, 5.0);
@@ -49,7 +49,7 @@ TEST(FastHd, ExactOnMathScene) {
   EXPECT_NEAR(std::hypot(solution->sin_theta21, solution->cos_theta21), 1.0, 1e-12);
 }
 
-// Any scale and sign of H give the same pose (κ fixes both, MATH.md §1.3, §1.5).
+// Any scale and sign of H give the same pose (κ fixes both, docs/math.md §1.3, §1.5).
 TEST(FastHd, InvariantToScaleAndSignOfH) {
   const PlanarPose truth(-0.4, 1.1, 0.3);
   const ScenePlane p = plane(-0.2, -0.3, 4.0);

@@ -17,7 +17,7 @@ using test_support::planeFromAngles;
 
 namespace {
 
-// Scene A of MATH.md §3.5.
+// Scene A of docs/math.md §3.5.
 const PlanarPose kSceneAPose(0.6, -1.4, -0.25);
 const ScenePlane kSceneAPlane = planeFromAngles(0.35, 0.2, 5.0);
 
@@ -30,7 +30,7 @@ PointMatches sceneAMatches(int count, unsigned seed) {
 
 }  // namespace
 
-// J_g against central differences of solveFastHd on each entry of H (MATH.md §3.4 step 2).
+// J_g against central differences of solveFastHd on each entry of H (docs/math.md §3.4 step 2).
 TEST(FastHdCovariance, FastHdJacobianMatchesFiniteDifferences) {
   const Eigen::Matrix3d H = 3.7 * planeInducedHomography(mathCamera(), kSceneAPose, kSceneAPlane);
   const auto jacobian = fastHdJacobian(H, mathCamera(), kSceneAPlane);
@@ -49,7 +49,7 @@ TEST(FastHdCovariance, FastHdJacobianMatchesFiniteDifferences) {
   }
 }
 
-// J_g·h = 0: scaling H does not move the pose (MATH.md §3.4).
+// J_g·h = 0: scaling H does not move the pose (docs/math.md §3.4).
 TEST(FastHdCovariance, FastHdJacobianAnnihilatesH) {
   const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), kSceneAPose, kSceneAPlane);
   const auto jacobian = fastHdJacobian(H, mathCamera(), kSceneAPlane);
@@ -161,7 +161,7 @@ TEST(FastHdCovariance, SecondOrderTermGrowsWithNoiseAsSigmaToTheFourth) {
   EXPECT_NEAR(large / small, 16.0, 1e-6 * 16.0);
 }
 
-// Predicted std against a Monte Carlo of the pipeline (MATH.md §3.5, scene A at 1 px; the
+// Predicted std against a Monte Carlo of the pipeline (docs/math.md §3.5, scene A at 1 px; the
 // evaluation program runs 2000 trials per cell, this smaller run checks the order of magnitude
 // and the ratio band with a fixed seed).
 TEST(FastHdCovariance, AgreesWithMonteCarlo) {

@@ -13,7 +13,7 @@ using test_support::mathCamera;
 using test_support::planeFromAngles;
 
 namespace {
-const PlanarPose kTruth(-1.1, 0.9, 0.45);  // scene B of MATH.md §3.5
+const PlanarPose kTruth(-1.1, 0.9, 0.45);  // scene B of docs/math.md §3.5
 const ScenePlane kPlane = planeFromAngles(-0.5, 0.0, 7.0);
 
 PointMatches matchesOf(const ScenePlane& plane, int count, unsigned seed) {

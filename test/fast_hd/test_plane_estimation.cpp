@@ -31,7 +31,7 @@ void expectPlaneNear(const ScenePlane& actual, const ScenePlane& expected, doubl
 
 }  // namespace
 
-// β ≠ 0: positive depth + planar motion leave one solution (MATH.md §2.1), scale from d1.
+// β ≠ 0: positive depth + planar motion leave one solution (docs/math.md §2.1), scale from d1.
 TEST(PlaneEstimation, FirstPlaneFromTiltedPlane) {
   const PlanarPose motion(0.4, 0.9, 0.15);
   const ScenePlane plane = planeFromAngles(0.3, 0.15, 6.0);
@@ -96,7 +96,7 @@ TEST(PlaneEstimation, FirstPlaneFailures) {
             StatusCode::kDegenerate);
 }
 
-// MATH.md §2.2: the transferred plane is the plane seen from the next camera.
+// docs/math.md §2.2: the transferred plane is the plane seen from the next camera.
 TEST(PlaneEstimation, TransferPlaneMatchesDirectGeometry) {
   const ScenePlane plane = planeFromAngles(0.3, 0.2, 6.0);
   const PlanarPose pose(0.7, 1.5, 0.35);
@@ -115,7 +115,7 @@ TEST(PlaneEstimation, TransferPlaneMatchesDirectGeometry) {
   EXPECT_EQ(transferPlane(plane, behind).status().code(), StatusCode::kDegenerate);
 }
 
-// MATH.md §2.3-2.4: the second plane from the homology of the two plane homographies.
+// docs/math.md §2.3-2.4: the second plane from the homology of the two plane homographies.
 TEST(PlaneEstimation, SecondPlaneFromHomology) {
   const PlanarPose motion(0.6, 1.1, -0.2);
   const ScenePlane first = planeFromAngles(0.3, 0.1, 6.0);
@@ -157,7 +157,7 @@ TEST(PlaneEstimation, PlanesAlongRoute) {
             StatusCode::kTooFewPoints);
 }
 
-// MATH.md §2.4's form without the homology: the plane from a homography and the known metric
+// docs/math.md §2.4's form without the homology: the plane from a homography and the known metric
 // motion, at any scale and sign of H; a pure rotation is refused.
 TEST(PlaneEstimation, PlaneFromHomographyAndKnownMotion) {
   std::mt19937 rng(7);

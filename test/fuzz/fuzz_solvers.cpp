@@ -1,5 +1,5 @@
 // libFuzzer target: the hand-written solvers on arbitrary numbers (NaN, Inf, zeros, huge values,
-// repeated points): Fast-HD (MATH.md §1.4), the 1D homography of vertical lines (DLT and LMedS)
+// repeated points): Fast-HD (docs/math.md §1.4), the 1D homography of vertical lines (DLT and LMedS)
 // and the 1D trifocal tensor (TT7, TT5, TT4, RANSAC, closed-form motion, triangulation). Each must
 // return a status or a finite result, never crash or trip a sanitizer.
 #include <Eigen/Core>

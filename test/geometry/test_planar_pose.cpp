@@ -36,7 +36,7 @@ TEST(WrapToPi, WrapsIntoHalfOpenInterval) {
   EXPECT_TRUE(std::isnan(wrapToPi(NAN)));
 }
 
-// MATH.md §1.1: X2 = R21 (X1 − C) with R21 = Ry(θ21), θ21 = −θ12.
+// docs/math.md §1.1: X2 = R21 (X1 − C) with R21 = Ry(θ21), θ21 = −θ12.
 TEST(PlanarPose, IsometryMatchesMathConvention) {
   const PlanarPose pose(0.6, -1.4, -0.25);
   const Eigen::Vector3d X1(1.3, -0.4, 6.0);

@@ -35,7 +35,7 @@ int findTrue(const std::vector<HomographyDecomposition>& solutions, const SceneP
 
 }  // namespace
 
-// MATH.md §1.8/§2.1: positive depth always keeps the true solution; for β ≠ 0 the planar-motion
+// docs/math.md §1.8/§2.1: positive depth always keeps the true solution; for β ≠ 0 the planar-motion
 // test then leaves only it.
 TEST(HomographyDecomposition, ClassicKeepsTheTruthAndPlanarTestDisambiguates) {
   std::mt19937_64 rng(21);

@@ -13,7 +13,7 @@ namespace {
 
 const LineCamera kCamera{500.0, 331.0};  // x0 ≠ width/2: μ needs centred coordinates (§4.5)
 
-// MATH.md §4.4 in pixels: H ∝ K (R + t nᵀ/d) K⁻¹, K = [[f, x0], [0, 1]], for the wall nᵀX1 = d.
+// docs/math.md §4.4 in pixels: H ∝ K (R + t nᵀ/d) K⁻¹, K = [[f, x0], [0, 1]], for the wall nᵀX1 = d.
 Eigen::Matrix2d wallHomography(double theta, const Eigen::Vector2d& t, double phi, double d) {
   Eigen::Matrix2d R, K;
   R << std::cos(theta), std::sin(theta), -std::sin(theta), std::cos(theta);
@@ -41,7 +41,7 @@ TEST(Heading1d, PureRotationAllMethodsExact) {
   }
 }
 
-// With translation μ = f (d sinθ + tx cosφ)/(d cosθ + tz cosφ) (MATH.md §4.5).
+// With translation μ = f (d sinθ + tx cosφ)/(d cosθ + tz cosφ) (docs/math.md §4.5).
 TEST(Heading1d, MuWithTranslationMatchesTheClosedForm) {
   const double theta = 0.1, phi = 0.3, d = 6.0;
   const Eigen::Vector2d t(0.4, -0.7);
@@ -52,7 +52,7 @@ TEST(Heading1d, MuWithTranslationMatchesTheClosedForm) {
               1e-9);
 }
 
-// Complete motion with the true scale (d2/d1 known) contains the true motion (MATH.md §4.7).
+// Complete motion with the true scale (d2/d1 known) contains the true motion (docs/math.md §4.7).
 TEST(Heading1d, CompleteMotionWithKnownDepthRatio) {
   const double theta = 0.2, phi = -0.35, d = 5.0;
   const Eigen::Vector2d t(0.6, -1.5);
@@ -88,7 +88,7 @@ TEST(Heading1d, SyntheticLinesFollowTheWallHomography) {
   const double phi = 0.3, d = 5.0;
   const Eigen::Vector2d n(std::sin(phi), std::cos(phi));
   const PlanarPose pose(0.4, 0.8, 0.12);  // camera 2 in frame 1
-  // t of MATH.md §4.1 (X2 = R X1 + t): t = −R C.
+  // t of docs/math.md §4.1 (X2 = R X1 + t): t = −R C.
   Eigen::Matrix2d R;
   R << std::cos(pose.theta), std::sin(pose.theta), -std::sin(pose.theta), std::cos(pose.theta);
   const Eigen::Vector2d t = -R * Eigen::Vector2d(pose.x, pose.z);
@@ -124,7 +124,7 @@ TEST(Heading1d, PlaneHomographyPredictsTheMuOfProjectedLines) {
     const auto predicted = predictedMu(pose, n, d, kCamera.f);
     ASSERT_TRUE(measured.isOk() && predicted.isOk());
     EXPECT_NEAR(*predicted, *measured, 1e-6);
-    // Lateral translation over-rotates (MATH.md §4.5): μ is not f tanθ once the camera moved.
+    // Lateral translation over-rotates (docs/math.md §4.5): μ is not f tanθ once the camera moved.
     if (pose.x != 0.0) {
       EXPECT_GT(std::abs(*predicted - kCamera.f * std::tan(pose.theta)), 10.0);
     }

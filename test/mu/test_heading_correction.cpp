@@ -54,7 +54,7 @@ cv::Mat wallImage(double theta, bool periodic = false) {
 
 // The same wall (fronto-parallel, `distance` [m] in front of the reference camera, which sees it
 // as wallImage(0)) seen by a camera at `pose` in the reference camera frame: the image warp is
-// the 3D plane homography, whose x-z part is the 1D one (planeHomography1d, MATH.md §4.4) and
+// the 3D plane homography, whose x-z part is the 1D one (planeHomography1d, docs/math.md §4.4) and
 // whose y row is 1 at that scale.
 cv::Mat wallImageFrom(const PlanarPose& pose, double distance, bool periodic) {
   const auto h = planeHomography1d(pose, Eigen::Vector2d(0.0, 1.0), distance, kF);

@@ -36,7 +36,7 @@ double distance(Eigen::Matrix2d a, Eigen::Matrix2d b) {
 
 }  // namespace
 
-// MATH.md §4.3: m = ⌈log Pf / log(1 − Pns³)⌉ = 17 (Pf 0.001) and 11 (Pf 0.01) at Pns = 0.7.
+// docs/math.md §4.3: m = ⌈log Pf / log(1 − Pns³)⌉ = 17 (Pf 0.001) and 11 (Pf 0.01) at Pns = 0.7.
 TEST(Homography1d, SubsetCountOfAlgorithm1) {
   Homography1dOptions options;
   EXPECT_EQ(options.subsetCount(), 17);

@@ -74,7 +74,7 @@ ScenePlane wallPlaneInCamera(const Pose2D& pose, double wall_x) {
 }  // namespace
 
 // The rendered images of a textured wall from two poses are related by exactly the plane-induced
-// homography of MATH.md §1.2: features matched between them fit it within a fraction of a pixel.
+// homography of docs/math.md §1.2: features matched between them fit it within a fraction of a pixel.
 TEST(WorldRenderer, TwoViewsOfAWallAreRelatedByThePlaneHomography) {
   const PlanarWorld world = oneWall();
   const WorldRenderer renderer(simCamera(), RenderOptions());

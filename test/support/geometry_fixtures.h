@@ -1,4 +1,4 @@
-// Shared fixtures of the geometry tests: the camera and planes of MATH.md §3.5 and helpers.
+// Shared fixtures of the geometry tests: the camera and planes of docs/math.md §3.5 and helpers.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -25,7 +25,7 @@ inline PinholeCamera mathCamera(double fu = 520.0) {
   return PinholeCamera(c);
 }
 
-// n = (sinα, cosα sinβ, cosα cosβ) (MATH.md §1.1).
+// n = (sinα, cosα sinβ, cosα cosβ) (docs/math.md §1.1).
 inline ScenePlane planeFromAngles(double alpha, double beta, double distance) {
   ScenePlane p;
   p.normal = Eigen::Vector3d(std::sin(alpha), std::cos(alpha) * std::sin(beta),

@@ -1,5 +1,5 @@
 // A taught route over an exact synthetic scene for the core tests: a textured wall, images that
-// are exact plane warps of it (MATH.md §1.2), recorded through TeachSession.
+// are exact plane warps of it (docs/math.md §1.2), recorded through TeachSession.
 #pragma once
 
 #include <cmath>

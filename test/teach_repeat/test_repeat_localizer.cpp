@@ -123,7 +123,7 @@ TEST_F(RepeatLocalizerTest, MuTrackingFollowsATurnInPlace) {
   EXPECT_EQ(localizer->trackedKeyframe(), 4);
 }
 
-// μ mode: keyframes the teach run took turning in place give no heading fix (MATH.md §4.5: the
+// μ mode: keyframes the teach run took turning in place give no heading fix (docs/math.md §4.5: the
 // translation coupling is large against the near walls of a corner); the first keyframe never
 // counts as one.
 TEST_F(RepeatLocalizerTest, MuModeSkipsTurnKeyframes) {

@@ -18,7 +18,7 @@ CameraCalibration calibration() { return test_support::syntheticCalibration(); }
 }  // namespace
 
 // Six keyframes along a gently turning path towards the wall; the planes estimated at the end
-// agree with the truth propagated to every keyframe (MATH.md §2.2).
+// agree with the truth propagated to every keyframe (docs/math.md §2.2).
 TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
   const std::string dir = makeTemporaryDirectory("htr_teach_test");
   TeachOptions options;

@@ -29,7 +29,7 @@ TrifocalMotion randomForwardMotion(std::mt19937& rng) {
 
 }  // namespace
 
-// MATH.md §5.6: one of the two candidates of the closed form is the truth (rotations exact,
+// docs/math.md §5.6: one of the two candidates of the closed form is the truth (rotations exact,
 // translations up to the common scale), for any scale and sign of T.
 TEST(TrifocalMotion, ClosedFormContainsTheTruth) {
   const LineCamera1d camera;
@@ -89,14 +89,14 @@ TEST(TrifocalMotion, OdometryPriorPicksTheCandidateAndTheScale) {
     EXPECT_LT(angleError(guided->motion.theta_third, truth.theta_third), 0.05) << trial;
     EXPECT_LT((guided->motion.centreThird() - truth.centreThird()).norm(), 0.2 * truth.centreThird().norm()) << trial;
   }
-  // The ambiguity is real but rare for a forward-looking camera (MATH.md §5.6: 12/100).
+  // The ambiguity is real but rare for a forward-looking camera (docs/math.md §5.6: 12/100).
   EXPECT_LT(ambiguous_without_prior, 40);
   // Cheirality or the prior keep the candidate nearer the truth (measured: 1-3 in 300 scenes are
   // missed, with prior errors from 0 to 0.1 rad).
   EXPECT_LE(picked_the_other, 3);
 }
 
-// MATH.md §5.7: the landmarks from the metric motion.
+// docs/math.md §5.7: the landmarks from the metric motion.
 TEST(TrifocalMotion, TriangulationRecoversTheLandmarks) {
   const LineCamera1d camera;
   std::mt19937 rng(13);

@@ -60,7 +60,7 @@ std::vector<BearingTriplet> pick(const std::vector<BearingTriplet>& t, const std
 
 }  // namespace
 
-// MATH.md §5.8 and paper 003 §IV: 40 % outliers, P = 0.99.
+// docs/math.md §5.8 and paper 003 §IV: 40 % outliers, P = 0.99.
 TEST(TrifocalRansac, IterationCountsOfThePaper) {
   EXPECT_EQ(ransacIterations(0.6, 7, 0.99, 100000), 163);
   EXPECT_EQ(ransacIterations(0.6, 5, 0.99, 100000), 57);

@@ -18,7 +18,7 @@ double tensorDistance(const TrifocalTensor1d& a, const TrifocalTensor1d& b) {
   return std::min((x - y).cwiseAbs().maxCoeff(), (x + y).cwiseAbs().maxCoeff());
 }
 
-// A random general configuration of MATH.md §5 (omnidirectional bearings: landmarks anywhere).
+// A random general configuration of docs/math.md §5 (omnidirectional bearings: landmarks anywhere).
 struct Configuration {
   TrifocalMotion motion;
   std::vector<Eigen::Vector2d> landmarks;
@@ -46,7 +46,7 @@ std::vector<BearingTriplet> firstN(const std::vector<BearingTriplet>& t, std::si
 
 }  // namespace
 
-// Eq. 2 with the minors; eq. 6 for the calibrated tensor (MATH.md §5.2).
+// Eq. 2 with the minors; eq. 6 for the calibrated tensor (docs/math.md §5.2).
 TEST(TrifocalTensor1d, MinorsSatisfyTheTrilinearAndCalibrationConstraints) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 50; ++trial) {
@@ -84,7 +84,7 @@ TEST(TrifocalTensor1d, MinimalEstimatorsAreExact) {
   }
 }
 
-// The corrected transfer (MATH.md §5.4) predicts each view's bearing from the other two.
+// The corrected transfer (docs/math.md §5.4) predicts each view's bearing from the other two.
 TEST(TrifocalTensor1d, TransferPredictsEveryView) {
   std::mt19937 rng(5);
   const Configuration c = randomConfiguration(rng);

@@ -109,7 +109,7 @@ class FountainSequence {
   const CameraCalibration& calibration() const { return calibration_; }
 
   // Ground-truth pose of level camera j in the level frame of camera i (x, z; the height
-  // difference is returned separately), θ = θ12 of MATH.md §1.1.
+  // difference is returned separately), θ = θ12 of docs/math.md §1.1.
   PlanarPose relativePose(int i, int j, double* height_offset = nullptr) const {
     const FountainView& a = views_[i];
     const FountainView& b = views_[j];

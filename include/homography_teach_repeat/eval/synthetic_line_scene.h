@@ -1,6 +1,6 @@
 // Exact synthetic vertical-line observations for tests and evaluation programs: top-view points
 // (x, z) of vertical lines, expressed in a reference frame, seen by a 1D camera at a planar pose
-// (MATH.md §4.1: X2 = R X1 + t with R = the x-z block of PlanarPose::rotation21()).
+// (docs/math.md §4.1: X2 = R X1 + t with R = the x-z block of PlanarPose::rotation21()).
 #pragma once
 
 #include <Eigen/Core>

@@ -1,6 +1,6 @@
 // Exact synthetic correspondences of a plane seen by two cameras (reference and current), for
 // the unit tests and the evaluation programs: points of the plane visible in both images,
-// projected with the pinhole model of MATH.md §1.1 (camera 2: X2 = R21 (X1 − C)).
+// projected with the pinhole model of docs/math.md §1.1 (camera 2: X2 = R21 (X1 − C)).
 #pragma once
 
 #include <Eigen/Core>

@@ -1,9 +1,9 @@
-// Fast Homography Decomposition (Fast-HD, paper 000 §II) with the corrections of MATH.md §1:
+// Fast Homography Decomposition (Fast-HD, paper 000 §II) with the corrections of docs/math.md §1:
 // the planar pose (x, z, θ) of the current camera in the frame of a reference camera from one
 // homography of a plane whose normal and distance in the reference frame are known. Constant
 // time, unique solution (the known normal removes the classic decomposition's ambiguity, §1.8).
 //
-// Implementation order (MATH.md §1.9):
+// Implementation order (docs/math.md §1.9):
 //   κ = H(2,2) − v0 H(3,2)                        (1-based; the exact normaliser, §1.3)
 //   Hn = H/κ;  c11, c13, c31, c33 and b = d1 (c11, c13, c31, c33)           (§1.4, corrected eq. 4)
 //   x21, z21, S, C from the closed-form inverse of Π; θ21 = atan2(S, C)     (§1.4)
@@ -20,7 +20,7 @@
 
 namespace homography_teach_repeat {
 
-// The intermediate solution of Π s* = b (MATH.md §1.4), kept for the covariance (§3.4).
+// The intermediate solution of Π s* = b (docs/math.md §1.4), kept for the covariance (§3.4).
 struct FastHdSolution {
   PlanarPose pose;          // camera 2 in the reference frame: (Cx, Cz, θ12)
   double x21 = 0.0;         // t21 = R21 C

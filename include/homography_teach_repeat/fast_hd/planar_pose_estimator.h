@@ -1,5 +1,5 @@
 // The whole per-frame estimate of the repeat phase: matches -> robust homography (inliers) ->
-// normalised DLT on the inliers -> Fast-HD -> covariance (MATH.md §3.4) -> optional 3-DoF
+// normalised DLT on the inliers -> Fast-HD -> covariance (docs/math.md §3.4) -> optional 3-DoF
 // refinement (planar_pose_refinement.h). Every failure is a status, never a pose.
 #pragma once
 

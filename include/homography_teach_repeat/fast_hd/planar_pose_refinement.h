@@ -3,10 +3,10 @@
 // several planes of known parameters. The DLT fits 8 parameters; the plane being known leaves 3,
 // so the refined pose uses the data better (eval_fast_hd: "FastHD_refined").
 //
-// Model (MATH.md §1.2): H21(pose) = K R21 (I − C nᵀ/d) K⁻¹, R21 = Ry(−θ12), C = (Cx, Cy, Cz) with
+// Model (docs/math.md §1.2): H21(pose) = K R21 (I − C nᵀ/d) K⁻¹, R21 = Ry(−θ12), C = (Cx, Cy, Cz) with
 // the height offset Cy either fixed at 0 or estimated as a nuisance parameter.
 // Cost (RefinementCost):
-//  - Sampson (default): per match r = W ε, ε = A_i h the algebraic DLT residual (MATH.md §3.1),
+//  - Sampson (default): per match r = W ε, ε = A_i h the algebraic DLT residual (docs/math.md §3.1),
 //    W = (B Bᵀ)^(-1/2), B = ∂ε/∂(u, v, u', v') (§3.4): the first-order geometric distance of the
 //    match to the model in the joint image space, i.e. the ML cost for iid pixel noise in both
 //    images (on eval_fast_hd's Table I it is as accurate as the symmetric transfer error,

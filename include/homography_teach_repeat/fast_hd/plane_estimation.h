@@ -1,5 +1,5 @@
 // Scene-plane parameters from the teach sequence (paper 000 §III with the corrections of
-// MATH.md §2):
+// docs/math.md §2):
 //  - first plane (§2.1): classic decomposition of the first homography, keep the solutions with
 //    positive depth AND planar motion; odometry breaks a remaining tie (β ≈ 0 leaves two planar
 //    solutions); metric scale from the user-given distance of the plane to the first reference;
@@ -37,7 +37,7 @@ struct PlaneAndMotion {
 };
 
 // `reference_pixels`: the inlier pixels of the reference image (for the positive-depth test).
-// A tie (β ≈ 0: two planar solutions, MATH.md §2.1) is broken by, in this order:
+// A tie (β ≈ 0: two planar solutions, docs/math.md §2.1) is broken by, in this order:
 //  - `odometry_motion`: the second camera in the first camera's frame from odometry; the
 //    candidate motion closest to it wins;
 //  - `H31`: the homography of the same plane from the first image to a third one. The plane
@@ -54,11 +54,11 @@ Expected<PlaneAndMotion> estimateFirstPlane(const Eigen::Matrix3d& H21, const Pi
                                             const Eigen::Matrix3d* H31 = nullptr,
                                             const FirstPlaneOptions& options = {});
 
-// MATH.md §2.2: the plane expressed in the frame of a camera at `pose` (pose in the frame where
+// docs/math.md §2.2: the plane expressed in the frame of a camera at `pose` (pose in the frame where
 // `plane` is given). kDegenerate when that camera is on or behind the plane (d2 <= 0).
 Expected<ScenePlane> transferPlane(const ScenePlane& plane, const PlanarPose& pose);
 
-// MATH.md §2.3-2.4: the second plane in the reference frame from the homographies of the first
+// docs/math.md §2.3-2.4: the second plane in the reference frame from the homographies of the first
 // (H_first) and the second plane (H_second) between the same two images, the first plane and the
 // motion (camera 2 in the reference frame, metric, from Fast-HD on the first plane).
 // Status: kDegenerate (no translation: C = 0; κ = 0; the result is a plane through the camera),
@@ -68,7 +68,7 @@ Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
                                          const PinholeCamera& camera, const ScenePlane& first_plane,
                                          const PlanarPose& motion);
 
-// MATH.md §2.4, "simpler equivalent without the homology": the plane (in the reference frame)
+// docs/math.md §2.4, "simpler equivalent without the homology": the plane (in the reference frame)
 // that induces H21 between two cameras whose metric motion is known (camera 2 in the reference
 // frame, e.g. from odometry): m = (R21 − K⁻¹(H21/κ)K)ᵀ t21 / |t21|², n = m/|m|, d = 1/|m|.
 // Status: kDegenerate (translation below `min_baseline` [m]: a rotation does not see the plane;

@@ -9,7 +9,7 @@
 //    at the principal point. It is plumb_bob with only k1, but its undistortion has a closed form
 //    (the real root of a cubic), so it is exact rather than iterative.
 //
-// Pixels follow the camera convention of MATH.md §1.1 (u right, v down); K = [[fx, 0, cx],
+// Pixels follow the camera convention of docs/math.md §1.1 (u right, v down); K = [[fx, 0, cx],
 // [0, fy, cy], [0, 0, 1]]. Undistorted pixel coordinates use the same K (like image_proc's
 // rectified image for a monocular camera with P = K).
 #pragma once

@@ -1,6 +1,6 @@
 // Planar robot poses in the two conventions the package meets, and the conversion between them.
 //
-// PlanarPose (MATH.md §1.1, §1.6): the pose of a camera 2 in the frame of a reference camera 1,
+// PlanarPose (docs/math.md §1.1, §1.6): the pose of a camera 2 in the frame of a reference camera 1,
 // both moving on a horizontal plane, in the camera convention of Fast-HD: camera axes x right,
 // y down, z forward; motion on the XZ plane. (x, z) is the centre of camera 2 in frame 1 and
 // theta (= θ12 = −θ21) is the counter-clockwise yaw of camera 2 in a top view with x right and
@@ -48,7 +48,7 @@ struct Pose2D {
 // first (max_gap <= 0: never).
 bool isClosedLoop(const std::vector<Pose2D>& poses, double max_gap);
 
-// Camera-convention planar pose of MATH.md §1.1 (x right [m], z forward [m], theta = θ12 [rad]).
+// Camera-convention planar pose of docs/math.md §1.1 (x right [m], z forward [m], theta = θ12 [rad]).
 struct PlanarPose {
   double x = 0.0;
   double z = 0.0;
@@ -66,7 +66,7 @@ struct PlanarPose {
 
   // 3D rigid transform mapping frame-2 coordinates to frame-1 coordinates (camera axes).
   Eigen::Isometry3d toIsometry() const;
-  // R21 = Ry(θ21) of MATH.md §1.1 and C = (x, 0, z): X2 = R21 (X1 − C).
+  // R21 = Ry(θ21) of docs/math.md §1.1 and C = (x, 0, z): X2 = R21 (X1 − C).
   Eigen::Matrix3d rotation21() const;
   Eigen::Vector3d centre() const { return Eigen::Vector3d(x, 0.0, z); }
 

@@ -11,7 +11,7 @@
 
 namespace homography_teach_repeat {
 
-// A plane in the reference camera frame (MATH.md §1.1): nᵀ X = d with n a unit vector pointing
+// A plane in the reference camera frame (docs/math.md §1.1): nᵀ X = d with n a unit vector pointing
 // from the camera towards the plane (visible points have nᵀ K⁻¹ p > 0) and d > 0 [m].
 struct ScenePlane {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
@@ -23,7 +23,7 @@ struct ScenePlane {
 };
 
 // The homography a plane induces between a reference camera and a camera at `pose`
-// (MATH.md §1.2): H21 ∝ K (R21 − t21 n1ᵀ / d1) K⁻¹, t21 = R21 C. Unit Frobenius norm.
+// (docs/math.md §1.2): H21 ∝ K (R21 − t21 n1ᵀ / d1) K⁻¹, t21 = R21 C. Unit Frobenius norm.
 // Used to synthesise exact data and by the plane-parameter estimation.
 Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const PlanarPose& pose,
                                        const ScenePlane& plane);

@@ -1,10 +1,10 @@
 // Plane-induced homography between a reference image and a current image: p_cur ∝ H p_ref.
 //
 // The DLT is written here (not taken from OpenCV) because the covariance of Fast-HD needs the
-// Jacobian of exactly this estimator (MATH.md §3.4). Rows per match follow MATH.md §3.1:
+// Jacobian of exactly this estimator (docs/math.md §3.4). Rows per match follow docs/math.md §3.1:
 //   A_i = [[0ᵀ, −pᵀ, v' pᵀ], [pᵀ, 0ᵀ, −u' pᵀ]],  A h = 0,
 // with Hartley normalisation (centroid at the origin, mean distance √2) of both point sets;
-// MATH.md §3.5 shows the unnormalised DLT has a bias comparable to its standard deviation.
+// docs/math.md §3.5 shows the unnormalised DLT has a bias comparable to its standard deviation.
 #pragma once
 
 #include <Eigen/Core>
@@ -28,7 +28,7 @@ struct HartleyNormalization {
 // Fails (kDegenerate) when all points coincide.
 Expected<HartleyNormalization> computeHartleyNormalization(const std::vector<Eigen::Vector2d>& points);
 
-// The normalised DLT with the quantities its Jacobian needs (MATH.md §3.4): Ĥ (unit Frobenius
+// The normalised DLT with the quantities its Jacobian needs (docs/math.md §3.4): Ĥ (unit Frobenius
 // norm, the right singular vector of Â), the two Hartley similarities, and the right singular
 // vectors / singular values of Â (descending; the last is the null direction, value ~0).
 // `H_unscaled` = T_cur⁻¹ Ĥ T_ref is the pixel homography at the scale the Jacobian refers to.
@@ -46,7 +46,7 @@ struct NormalizedDlt {
 Expected<NormalizedDlt> solveNormalizedDlt(const PointMatches& matches);
 
 // Normalised DLT from >= 4 matches. The result has unit Frobenius norm; its sign is arbitrary
-// (use Fast-HD's κ normalisation, MATH.md §1.3, where the sign matters).
+// (use Fast-HD's κ normalisation, docs/math.md §1.3, where the sign matters).
 // Status: kTooFewPoints (< 4), kInvalidInput (non-finite coordinates), kDegenerate (collinear
 // points in either image, coincident points, or a null space of dimension > 1).
 Expected<Eigen::Matrix3d> estimateHomographyDlt(const PointMatches& matches);

@@ -1,9 +1,9 @@
 // Decompositions of a plane-induced homography into motion and plane: the classic one (OpenCV's
-// cv::decomposeHomographyMat, up to 4 solutions) with the filters of MATH.md §2.1, and the
+// cv::decomposeHomographyMat, up to 4 solutions) with the filters of docs/math.md §2.1, and the
 // decomposition for planar motion (Planar-HD, written here). Plane estimation (§2.1) uses the
 // classic one; Planar-HD is a baseline for eval_fast_hd.
 //
-// Conventions (MATH.md §1.1-1.2): H21 ∝ K (R21 + T Nᵀ) K⁻¹ with X2 = R21 X1 + T·d1 (OpenCV's
+// Conventions (docs/math.md §1.1-1.2): H21 ∝ K (R21 + T Nᵀ) K⁻¹ with X2 = R21 X1 + T·d1 (OpenCV's
 // form; T = −t21/d1), N the unit plane normal in the reference frame, positive depth Nᵀ K⁻¹ p > 0.
 #pragma once
 
@@ -23,7 +23,7 @@ struct HomographyDecomposition {
   Eigen::Vector3d translation_over_distance = Eigen::Vector3d::Zero();  // T = −t21/d1
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();                    // N, reference frame
 
-  // Planar motion about the camera's y axis: |R(1,1) − 1| < eps and |T_y| < eps (MATH.md §2.1).
+  // Planar motion about the camera's y axis: |R(1,1) − 1| < eps and |T_y| < eps (docs/math.md §2.1).
   bool isPlanarMotion(double eps) const;
   // The planar pose (Cx, Cz, θ12) this solution implies for a plane at distance d1: t21 = −T d1,
   // C = R21ᵀ t21, θ21 the yaw of R21 (any out-of-plane rotation is dropped).

@@ -1,13 +1,13 @@
 // Optional nonlinear refinement of a homography (8 DoF) on inlier matches: Levenberg-Marquardt on
 // the Sampson distance, the first-order geometric (ML) error of a match for iid pixel noise in
-// both images: r_i = W_i A_i h, W_i = (B_i B_iᵀ)^(-1/2), with the DLT rows A_i (MATH.md §3.1) and
-// B_i = ∂(A_i h)/∂(u, v, u', v') (MATH.md §3.4). The DLT minimises the algebraic error instead
-// (biased, MATH.md §3.5). h stays on the unit sphere: steps are taken in its 8-dimensional
+// both images: r_i = W_i A_i h, W_i = (B_i B_iᵀ)^(-1/2), with the DLT rows A_i (docs/math.md §3.1) and
+// B_i = ∂(A_i h)/∂(u, v, u', v') (docs/math.md §3.4). The DLT minimises the algebraic error instead
+// (biased, docs/math.md §3.5). h stays on the unit sphere: steps are taken in its 8-dimensional
 // tangent space and renormalised. Coordinates are conditioned by translating each image's
 // centroid to the origin and scaling both images by one common factor (a common scale keeps the
 // Sampson distance proportional to pixels).
 //
-// Used by RobustHomographyOptions::refine_nonlinear. Fast-HD's covariance (MATH.md §3.4) is that
+// Used by RobustHomographyOptions::refine_nonlinear. Fast-HD's covariance (docs/math.md §3.4) is that
 // of the DLT, so the pose pipeline keeps the DLT and refines the pose instead
 // (planar_pose_refinement.h).
 #pragma once

@@ -31,6 +31,14 @@ struct RegistrationResult {
   int current_features = 0;
 };
 
+// The chain every registration uses, between two sets of features (of one camera): matches,
+// undistorted by `camera` when it is given (undistortMatches: pixels that do not undistort drop
+// their match), then the robust homography. kTooFewPoints below 4 matches; otherwise the matcher's
+// or the robust estimator's status.
+Expected<RegistrationResult> registerFeatures(const ImageFeatures& reference, const ImageFeatures& current,
+                                              const MatchOptions& matching, const RobustHomographyOptions& robust,
+                                              const PinholeCamera* camera);
+
 class ImageRegistration {
  public:
   explicit ImageRegistration(const RegistrationOptions& options);

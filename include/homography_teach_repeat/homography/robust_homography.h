@@ -1,6 +1,6 @@
 // Robust homography from matches with outliers: an inlier selector, then the normalised DLT of
 // homography.h refitted on the inliers (so the estimate, and its covariance later, is that of the
-// estimator the error propagation of MATH.md §3.4 describes).
+// estimator the error propagation of docs/math.md §3.4 describes).
 //
 // Inlier selection uses OpenCV's findHomography (RANSAC, LMedS, USAC MAGSAC++, or USAC's
 // LO-RANSAC with MSAC scoring, "lo_ransac", cv::USAC_DEFAULT); each adapts its

@@ -1,5 +1,5 @@
-// Heading from a 1D homography of vertical lines (paper 002 §3, MATH.md §4.4-4.7). Conventions
-// (MATH.md §4.1): top view (x, z), X2 = R X1 + t, R = [[cosθ, sinθ], [−sinθ, cosθ]]; θ > 0 turns
+// Heading from a 1D homography of vertical lines (paper 002 §3, docs/math.md §4.4-4.7). Conventions
+// (docs/math.md §4.1): top view (x, z), X2 = R X1 + t, R = [[cosθ, sinθ], [−sinθ, cosθ]]; θ > 0 turns
 // the camera towards −x (left), the same sign as PlanarPose::theta (θ12). Image x = f X/Z + x0.
 // H maps reference x to current x (pixels, any scale).
 //
@@ -48,7 +48,7 @@ struct CompleteMotion1d {
   Eigen::Vector2d normal = Eigen::Vector2d::UnitY();            // n in frame 1, nᵀ m1 > 0
 };
 
-// Corrected Algorithm 2 (MATH.md §4.7). `reference_xs`: the inlier x of the reference image (for
+// Corrected Algorithm 2 (docs/math.md §4.7). `reference_xs`: the inlier x of the reference image (for
 // the sign of Hc and of n). `depth_ratio` d2/d1 when known (true scale); otherwise det Hc = 1.
 // Returns 1 or 2 solutions. Status: kInvalidInput (no reference x, bad camera or ratio),
 // kDegenerate (det Hc <= 0), kNotFinite.
@@ -59,9 +59,9 @@ Expected<std::vector<CompleteMotion1d>> completeMotion1d(const Eigen::Matrix2d& 
 
 // The 1D homography that lines on the wall nᵀX1 = d (reference camera frame, n = (nx, nz) unit,
 // d > 0) induce between the reference camera and a camera at `current` (its pose in the reference
-// camera frame), in centred pixels: MATH.md §4.4, H = K (R + t nᵀ/d) K⁻¹ with t = −R C,
+// camera frame), in centred pixels: docs/math.md §4.4, H = K (R + t nᵀ/d) K⁻¹ with t = −R C,
 // K = [[f, 0], [0, 1]], at the scale h22 = cosθ + tz nz/d (not normalised). μ = h12/h22 of it is
-// what HeadingCorrector measures (MATH.md §4.5). Status kInvalidInput for a non-unit or
+// what HeadingCorrector measures (docs/math.md §4.5). Status kInvalidInput for a non-unit or
 // non-finite normal, d <= 0 or f <= 0; kDegenerate when h22 <= 0 (the wall is not in front of
 // both cameras).
 Expected<Eigen::Matrix2d> planeHomography1d(const PlanarPose& current, const Eigen::Vector2d& normal_xz,

@@ -6,7 +6,7 @@
 //    turned.
 //  - correct (correctWithMu): μ = h12/h22 measured against a reference keyframe whose wall
 //    (normal, distance from the teach phase) is known. The measurement model is the exact μ of
-//    the plane-induced 1D homography (MATH.md §4.4-4.5, planeHomography1d): μ depends on the
+//    the plane-induced 1D homography (docs/math.md §4.4-4.5, planeHomography1d): μ depends on the
 //    heading *and* on the lateral offset (μ ≈ f (θ + tx/d)), the "over-rotation" paper 002
 //    relies on. Treating μ as a pure heading (f tanθ) puts a lateral offset of 15 cm into the
 //    heading as 5-9° near a wall (measured in the simulator) and the odometry then carries that
@@ -74,7 +74,7 @@ struct MuObservation {
 std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
                                       const Pose2D& camera_mount, double focal_px, int reference_id);
 // The centred 1D homography the observation's wall induces between the reference camera and the
-// camera of a robot at `base` (route frame), MATH.md §4.4 (planeHomography1d); its h12/h22 is the
+// camera of a robot at `base` (route frame), docs/math.md §4.4 (planeHomography1d); its h12/h22 is the
 // μ the filter predicts, and it tells the line matcher where the reference lines should be.
 Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
 

@@ -50,7 +50,7 @@ class HeadingCorrector {
   Expected<HeadingCorrection> estimate(const std::vector<VerticalLine>& reference,
                                        const std::vector<VerticalLine>& current,
                                        double predicted_theta = 0.0) const;
-  // The same guided by a predicted centred 1D homography (reference -> current x, MATH.md §4.4),
+  // The same guided by a predicted centred 1D homography (reference -> current x, docs/math.md §4.4),
   // e.g. the keyframe's wall at the pose the odometry predicts (wallHomography1dAt): it moves the
   // lines by the lateral offset and the depth change too, not only by the rotation. On periodic
   // structure (a calibration board, a grid of windows) a lateral offset of one period otherwise

@@ -1,4 +1,4 @@
-// 1D homography of vertical lines (paper 002 §2; MATH.md §4.2-4.3): λ (x2, 1)ᵀ = H21 (x1, 1)ᵀ,
+// 1D homography of vertical lines (paper 002 §2; docs/math.md §4.2-4.3): λ (x2, 1)ᵀ = H21 (x1, 1)ᵀ,
 // H21 2x2 up to scale, one equation per matched line:
 //   (x1, 1, −x1 x2, −x2) · (h11, h12, h21, h22)ᵀ = 0,
 // so 3 matches determine it. Least median of squares exactly as the paper's Algorithm 1:

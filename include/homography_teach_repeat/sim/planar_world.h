@@ -2,7 +2,7 @@
 // and the closed-loop demo. Walls are 2D segments seen from above (REP-103 world frame: x, y on
 // the floor, z up) with a height and a texture of known metric size, tiled along the wall from its
 // start point and up from the floor. The image of a textured plane is a homography of its texture
-// (MATH.md §1.2), so a camera in this world sees exactly what the homography model assumes.
+// (docs/math.md §1.2), so a camera in this world sees exactly what the homography model assumes.
 //
 // World file (YAML), validated on load with the file and field of any problem:
 //   format_version: 1

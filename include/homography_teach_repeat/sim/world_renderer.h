@@ -4,7 +4,7 @@
 // nearest hit in front of the camera wins: exact occlusion, nothing behind the camera is drawn);
 // along that column the wall is a vertical line, and each pixel's height on the wall follows from
 // the ray's depth, so every pixel samples the wall texture exactly where the plane-induced
-// homography of that wall maps it (MATH.md §1.2), bilinearly. Above and below the walls: ceiling
+// homography of that wall maps it (docs/math.md §1.2), bilinearly. Above and below the walls: ceiling
 // and floor colours. Optional illumination gain, Gaussian pixel noise and blur.
 #pragma once
 

@@ -44,7 +44,7 @@ struct RepeatOptions {
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;
-  // mu mode: μ measures the heading only up to its translation coupling f·tx·cosφ/d (MATH.md
+  // mu mode: μ measures the heading only up to its translation coupling f·tx·cosφ/d (docs/math.md
   // §4.5): a lateral offset tx seen against a wall d away reads as a rotation of about tx/d. So
   //  - keyframes the teach run reached turning in place or started turning at (yaw changed by
   //    more than kTurnKeyframeAngle + kTurnKeyframeRate · distance from the previous or to the
@@ -87,7 +87,7 @@ struct RepeatEstimate {
   Pose2D base_pose;       // base_link in the route frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw), route frame
   bool covariance_known = false;                         // false in classic mode
-  PlanarPose camera_relative;  // current camera in the reference camera frame (MATH.md §1.1)
+  PlanarPose camera_relative;  // current camera in the reference camera frame (docs/math.md §1.1)
   double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
   double mu = 0.0;                  // mu mode: h12/h22 [px]
   // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.

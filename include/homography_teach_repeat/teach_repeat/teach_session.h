@@ -1,6 +1,6 @@
 // The teach phase without ROS: decides which images become keyframes, stores them (image,
 // features, vertical lines, odometry pose) in a crash-safe route, and at the end estimates the
-// scene planes along the keyframes (MATH.md §2, plane_estimation.h) with the user-given distance
+// scene planes along the keyframes (docs/math.md §2, plane_estimation.h) with the user-given distance
 // of the first plane, writing them into the route. teach_node is a thin wrapper around this.
 #pragma once
 
@@ -60,7 +60,7 @@ class TeachSession {
 
   // Plane estimation over the stored keyframes (needs >= 2 keyframes and
   // first_plane_distance > 0): the homographies between consecutive keyframes (undistorted
-  // matches, robust estimator), MATH.md §2 along the route with the odometry motion breaking the
+  // matches, robust estimator), docs/math.md §2 along the route with the odometry motion breaking the
   // β ≈ 0 tie; keyframes after a failed pair get no plane. Writes the route index.
   Expected<PlaneEstimationReport> finish();
 

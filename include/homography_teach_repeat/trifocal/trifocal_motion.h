@@ -1,5 +1,5 @@
-// Motion and structure from the 1D trifocal tensor (MATH.md §5.6-5.7; paper 003 leaves this step
-// to its references, MATH.md gives a verified closed form).
+// Motion and structure from the 1D trifocal tensor (docs/math.md §5.6-5.7; paper 003 leaves this step
+// to its references, docs/math.md gives a verified closed form).
 //
 // The closed form gives two candidates (the genuine two-fold ambiguity of three 1D views): both
 // reproduce T and every bearing exactly. Each candidate has 8 sign variants (θ' + π, θ'' + π,
@@ -18,7 +18,7 @@
 
 namespace homography_teach_repeat {
 
-// Views 2 and 3 relative to view 1 (MATH.md §5.1): X_k = R(θ_k) X_1 + t_k. The translations share
+// Views 2 and 3 relative to view 1 (docs/math.md §5.1): X_k = R(θ_k) X_1 + t_k. The translations share
 // one unknown scale (unit norm of (t', t'') from the tensor alone).
 struct TrifocalMotion {
   double theta_second = 0.0;
@@ -33,7 +33,7 @@ struct TrifocalMotion {
   TrifocalMotion scaled(double factor) const;
 };
 
-// The tensor of a motion: T_ijk = minors of [M; M'; M''] (MATH.md §5.2, sign of eq. 2).
+// The tensor of a motion: T_ijk = minors of [M; M'; M''] (docs/math.md §5.2, sign of eq. 2).
 TrifocalTensor1d tensorFromMotion(const TrifocalMotion& motion);
 // The unit bearing of landmark (X, Z) (frame of view 1) in view 1, 2 or 3 of `motion`: the
 // direction of M_k x, so a landmark behind the camera gets |α| > π/2.
@@ -88,7 +88,7 @@ Expected<TrifocalMotionEstimate> estimateTrifocalMotion(const TrifocalTensor1d& 
                                                        const std::optional<TrifocalMotionPrior>& prior = std::nullopt,
                                                        const TrifocalMotionOptions& options = {});
 
-// Bundle adjustment of the motion and the landmarks (triangulated from `initial`, MATH.md §5.7) on
+// Bundle adjustment of the motion and the landmarks (triangulated from `initial`, docs/math.md §5.7) on
 // the angular bearing errors in the three views (Levenberg-Marquardt, landmarks eliminated by the
 // Schur complement), the scale kept by |(t', t'')| fixed. Returns the motion with the same
 // translation norm; kInvalidInput for non-finite input, kTooFewPoints for fewer than 5 triplets,
@@ -96,7 +96,7 @@ Expected<TrifocalMotionEstimate> estimateTrifocalMotion(const TrifocalTensor1d& 
 Expected<TrifocalMotion> refineTrifocalMotion(const TrifocalMotion& initial, const std::vector<BearingTriplet>& triplets,
                                               int max_iterations = 20);
 
-// Landmark from its three bearings (MATH.md §5.7): rows u_2 M_k(1,:) − u_1 M_k(2,:), SVD null
+// Landmark from its three bearings (docs/math.md §5.7): rows u_2 M_k(1,:) − u_1 M_k(2,:), SVD null
 // vector, in the scale of the motion's translations. kDegenerate for a landmark at infinity or
 // on the line of the camera centres (no parallax); kInvalidInput for non-finite bearings.
 Expected<Eigen::Vector2d> triangulateLandmark(const TrifocalMotion& motion, const BearingTriplet& triplet);

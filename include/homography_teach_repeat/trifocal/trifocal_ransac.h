@@ -1,4 +1,4 @@
-// Robust three-view matching with the 1D trifocal tensor (paper 003 §IV; MATH.md §5.4, §5.8).
+// Robust three-view matching with the 1D trifocal tensor (paper 003 §IV; docs/math.md §5.4, §5.8).
 //
 // RANSAC over minimal sets of bearing triplets (TT7: 7, TT5: 5), each hypothesis scored by the
 // angular transfer error of every triplet (the largest of the three views' errors, modulo π),
@@ -65,7 +65,7 @@ struct DominantPlane {
 Expected<DominantPlane> estimateDominantPlane(const std::vector<BearingTriplet>& triplets,
                                               const TrifocalRansacOptions& options = {});
 
-// Adaptive RANSAC count ⌈log(1 − P)/log(1 − w^n)⌉ (MATH.md §5.8), capped at `cap`.
+// Adaptive RANSAC count ⌈log(1 − P)/log(1 − w^n)⌉ (docs/math.md §5.8), capped at `cap`.
 int ransacIterations(double inlier_fraction, int sample_size, double confidence, int cap);
 
 // Status: kTooFewPoints (fewer triplets than a minimal set), kInvalidInput (non-finite bearings,

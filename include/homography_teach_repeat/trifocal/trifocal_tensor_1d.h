@@ -1,10 +1,10 @@
-// The 1D trifocal tensor of three planar views (paper 003; MATH.md §5).
+// The 1D trifocal tensor of three planar views (paper 003; docs/math.md §5).
 //
 // Top view of a planar motion: a landmark x = (X, Z, 1)ᵀ (X right, Z forward in the first
 // camera) is seen by view k as the bearing u ∝ M_k x, u = (sin α, cos α)ᵀ with α measured from
 // the optical axis (+Z) towards +X. M = [I | 0], M' = [R(θ') | t'], M'' = [R(θ'') | t''],
 // R(θ) = [[cos θ, sin θ], [−sin θ, cos θ]] (X_k = R X_1 + t; θ > 0 turns the camera towards −X,
-// i.e. to the left) — MATH.md §5.1, with the printed R'' typo corrected.
+// i.e. to the left) — docs/math.md §5.1, with the printed R'' typo corrected.
 // The tensor T = (T111, T112, T121, T122, T211, T212, T221, T222) satisfies the trilinear
 // constraint Σ T_ijk u_i u'_j u''_k = 0 (eq. 2) for every landmark seen in the three views.
 //
@@ -39,7 +39,7 @@ struct BearingTriplet {
 // Bearing of an angle α [rad] from the optical axis towards +X (an omnidirectional image).
 Bearing bearingFromAngle(double alpha);
 // Bearing of the image column x [px] of a conventional camera with focal length f [px] and
-// principal point u0 [px] (after undistortion): (x − u0, f), normalised. MATH.md §5.2 eq. 4:
+// principal point u0 [px] (after undistortion): (x − u0, f), normalised. docs/math.md §5.2 eq. 4:
 // u^p = K u^c, K = [[f, u0], [0, 1]].
 Bearing bearingFromPixel(double x, double f, double u0);
 // Angle of a bearing, atan2(u1, u2).
@@ -57,7 +57,7 @@ Eigen::Vector2d calibrationResidual(const TrifocalTensor1d& T);
 // Σ T_ijk u_i u'_j u''_k for unit bearings and a unit-norm tensor (0 for an exact triplet).
 double trilinearResidual(const TrifocalTensor1d& T, const BearingTriplet& triplet);
 
-// Transfer (MATH.md §5.4, eq. 8 corrected): the bearing of view `view` (1, 2 or 3) predicted from
+// Transfer (docs/math.md §5.4, eq. 8 corrected): the bearing of view `view` (1, 2 or 3) predicted from
 // the other two; the angular error between the predicted and the measured bearing [rad], modulo π
 // (projective sign). transferError: the largest of the three views' errors.
 Bearing transferBearing(const TrifocalTensor1d& T, const BearingTriplet& triplet, int view);
@@ -75,7 +75,7 @@ Expected<TrifocalTensor1d> estimateTT7(const std::vector<BearingTriplet>& triple
 Expected<TrifocalTensor1d> estimateTT5(const std::vector<BearingTriplet>& triplets);
 
 // 1D homography between bearings of a plane (a wall's trace): u' ∝ H u, from ≥ 3 pairs, row
-// (−u'2 u1, −u'2 u2, u'1 u1, u'1 u2)·(H11, H12, H21, H22) = 0 (MATH.md §5.5). Unit norm.
+// (−u'2 u1, −u'2 u2, u'1 u1, u'1 u2)·(H11, H12, H21, H22) = 0 (docs/math.md §5.5). Unit norm.
 // kTooFewPoints, kInvalidInput, kDegenerate (fewer than 3 distinct bearings).
 Expected<Eigen::Matrix2d> estimateBearingHomography(const std::vector<Bearing>& from,
                                                     const std::vector<Bearing>& to);

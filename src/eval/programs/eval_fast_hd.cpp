@@ -1,6 +1,6 @@
 // eval_fast_hd: paper 000's Table I (accuracy of 8PointF, 5PointF, Classic-HD, Planar-HD and
 // Fast-HD, plus our refined Fast-HD) on one set of synthetic trials, and a Monte Carlo check of
-// the Fast-HD covariance (MATH.md §3.5 scenes A and B).
+// the Fast-HD covariance (docs/math.md §3.5 scenes A and B).
 //
 //   rosrun homography_teach_repeat eval_fast_hd [--trials 1000] [--seed 1] [--json F]
 //          [--mc-trials 2000] [--wall-points 200]
@@ -74,7 +74,7 @@ Trial drawTrial(const PinholeCamera& camera, int wall_points, std::mt19937_64* r
   const Eigen::Vector3d wall_normal(std::sin(yaw), 0.0, std::cos(yaw));
   const Eigen::Vector3d wall_point(0.0, 0.0, 6.0);
   const Eigen::Vector3d wall_direction(std::cos(yaw), 0.0, -std::sin(yaw));
-  // Facing the wall: optical axis (−sinφ, 0, cosφ) = wall normal ⇒ φ = −yaw (MATH.md §1.1).
+  // Facing the wall: optical axis (−sinφ, 0, cosφ) = wall normal ⇒ φ = −yaw (docs/math.md §1.1).
   const PlanarPose reference(square(*rng), square(*rng), -yaw + deviation(*rng));
   const PlanarPose current(square(*rng), square(*rng), -yaw + deviation(*rng));
   Trial trial;
@@ -217,7 +217,7 @@ nlohmann::json runTable1(int trials, int wall_points, int min_matches, std::mt19
   return table;
 }
 
-// MATH.md §3.5 scenes. Scene A: 40 matches, θ21 = 0.25, C = (0.6, −1.4), α = 0.35, β = 0.2,
+// docs/math.md §3.5 scenes. Scene A: 40 matches, θ21 = 0.25, C = (0.6, −1.4), α = 0.35, β = 0.2,
 // d1 = 5, fu = 520. Scene B: 20 matches, θ21 = −0.45, C = (−1.1, 0.9), α = −0.5, β = 0, d1 = 7,
 // fu = 800.
 struct CovarianceScene {

@@ -11,7 +11,7 @@
 //     truth (its heading and position are not);
 //  2. features (SIFT by default) on images downscaled by --scale (robot-like resolution), ratio +
 //     mutual matching, robust homography per consecutive pair of references;
-//  3. plane estimation along the references (MATH.md §2; the β ≈ 0 tie of the first pair is
+//  3. plane estimation along the references (docs/math.md §2; the β ≈ 0 tie of the first pair is
 //     broken by the third view); the only metric ground truth used is the distance of the wall
 //     from image 0 (the user-given scale), measured here by triangulating the first pair's wall
 //     inliers with the ground-truth cameras and fitting a plane;

@@ -7,7 +7,7 @@
 // Each image is gravity aligned first (warped by K Q K⁻¹ to a level virtual camera: vertical
 // lines are then vertical in the image), then vertical lines are extracted, matched and the 1D
 // homography is estimated by LMedS. These images are 1.4-1.8 m apart at ~4-9 m from the wall, so
-// translation is not small: μ measures f (d sinθ + tx cosφ)/(d cosθ + tz cosφ) (MATH.md §4.5), not
+// translation is not small: μ measures f (d sinθ + tx cosφ)/(d cosθ + tz cosφ) (docs/math.md §4.5), not
 // f tanθ. The program reports, per pair, the heading from μ, the error against the ground truth,
 // and the part of it predicted by that formula from the ground-truth translation and the wall
 // (fitted to ground-truth-triangulated points): "coupling_deg" = atan(μ_exact/f) − θ.
@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
     std::vector<double> reference_xs;
     for (const int k : h->inliers) reference_xs.push_back(correspondences[k].reference_x);
     const auto complete = completeMotion1d(h->H, line_camera, reference_xs);
-    // Exact μ from the ground truth (MATH.md §4.4-4.5): Hc = R + t nᵀ/d in the level frame of i.
+    // Exact μ from the ground truth (docs/math.md §4.4-4.5): Hc = R + t nᵀ/d in the level frame of i.
     const eval::FountainView& a = views[i];
     Eigen::Vector3d n3 = a.level.transpose() * wall_normal;
     double d = wall_offset - wall_normal.dot(a.gt.C);
