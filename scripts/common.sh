@@ -22,7 +22,7 @@ HTR_DEBIAN_PACKAGES=(
   libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev googletest libbenchmark-dev
   clang clang-tidy libclang-rt-14-dev
-  opencv-doc
+  opencv-doc python3-matplotlib
   rviz xvfb xauth imagemagick
 )
 

@@ -4,18 +4,14 @@
 #include <cmath>
 
 #include "homography_teach_repeat/geometry/point_match.h"
+#include "support/synthetic_route.h"
 
 using namespace homography_teach_repeat;
 
 namespace {
 
 CameraCalibration calibration(const std::string& model, std::vector<double> coefficients) {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500.0;
-  c.cx = 320.0;
-  c.cy = 240.0;
+  CameraCalibration c = test_support::syntheticCalibration();
   c.distortion_model = model;
   c.distortion = std::move(coefficients);
   return c;

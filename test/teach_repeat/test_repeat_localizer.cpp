@@ -4,36 +4,16 @@
 #include <filesystem>
 
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
-#include "support/synthetic_route.h"
+#include "support/synthetic_route_test.h"
 
 using namespace homography_teach_repeat;
-using test_support::SyntheticWall;
 
 namespace {
 
 // The robot pose (base = camera, mount at the origin) of a camera pose of the synthetic scene.
 Pose2D basePose(const PlanarPose& camera_pose) { return cameraAxesToRep103(camera_pose); }
 
-class RepeatLocalizerTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    wall_ = new SyntheticWall();
-    directory_ = test_support::teachSyntheticRoute(*wall_, FeatureType::kAkaze);
-  }
-  static void TearDownTestSuite() {
-    std::filesystem::remove_all(directory_);
-    delete wall_;
-  }
-  static Route route() {
-    auto r = loadRoute(directory_);
-    EXPECT_TRUE(r.isOk()) << r.status().toString();
-    return *r;
-  }
-  static SyntheticWall* wall_;
-  static std::string directory_;
-};
-SyntheticWall* RepeatLocalizerTest::wall_ = nullptr;
-std::string RepeatLocalizerTest::directory_;
+using RepeatLocalizerTest = test_support::SyntheticRouteTest;
 
 }  // namespace
 

@@ -7,36 +7,18 @@
 #include <vector>
 
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
-#include "support/synthetic_route.h"
+#include "support/synthetic_route_test.h"
 
 using namespace homography_teach_repeat;
-using test_support::SyntheticWall;
 
 namespace {
 
-class RepeatPipelineTest : public ::testing::Test {
+class RepeatPipelineTest : public test_support::SyntheticRouteTest {
  protected:
-  static void SetUpTestSuite() {
-    wall_ = new SyntheticWall();
-    directory_ = test_support::teachSyntheticRoute(*wall_, FeatureType::kAkaze);
-  }
-  static void TearDownTestSuite() {
-    std::filesystem::remove_all(directory_);
-    delete wall_;
-  }
-  static Route route() {
-    auto r = loadRoute(directory_);
-    EXPECT_TRUE(r.isOk()) << r.status().toString();
-    return *r;
-  }
   static PinholeCamera camera() { return PinholeCamera(test_support::syntheticCalibration()); }
   // The camera on the taught path at arc length s [m], `lateral` [m] to its right.
   static PlanarPose pathCamera(double s, double lateral = 0.0) { return PlanarPose(0.08 * s + lateral, s, 0.04 * s); }
-  static SyntheticWall* wall_;
-  static std::string directory_;
 };
-SyntheticWall* RepeatPipelineTest::wall_ = nullptr;
-std::string RepeatPipelineTest::directory_;
 
 double yawError(const Pose2D& a, const Pose2D& b) { return std::abs(wrapToPi(a.yaw - b.yaw)); }
 

@@ -2,7 +2,7 @@
 // homography of vertical lines by μ, t, eigenvalues and complete motion) and Fig. 4 (a robot in a
 // corridor correcting its heading every 7 m).
 //
-//   rosrun homography_teach_repeat eval_mu [--json F] [--plot corridor.png] [--seed S]
+//   rosrun homography_teach_repeat eval_mu [--json F] [--seed S]; plots: scripts/plot_evaluation F
 //          [--runs 100] [--lines 20] [--axis-offset 0]
 //
 // Table 1: a 1D camera (640 px, f = 500 px) rotates from −10° to 10° in 29 steps about a vertical
@@ -24,8 +24,6 @@
 // from μ, or from complete motion (given its best case: of the two solutions the one closer to
 // the true heading error). Output: the final lateral error [m] and a PNG of the trajectories.
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <iomanip>
@@ -217,50 +215,12 @@ Trajectory runCorridor(int mode, bool lateral_drift, unsigned seed) {
   return trajectory;
 }
 
-void drawPlot(const std::string& path, const std::vector<std::vector<Trajectory>>& runs) {
-  const int panel_w = 420, height = 760, margin = 30;
-  cv::Mat image(height, 2 * panel_w, CV_8UC3, cv::Scalar(255, 255, 255));
-  const cv::Scalar colours[] = {cv::Scalar(60, 60, 60), cv::Scalar(0, 0, 220), cv::Scalar(220, 120, 0)};
-  const char* names[] = {"no correction", "mu", "complete motion"};
-  const char* titles[] = {"rotation drift", "rotation + lateral drift"};
-  double half_width = 3.0;  // [m], grown to fit every trajectory
-  for (const auto& panel : runs) {
-    for (const auto& t : panel) {
-      for (const auto& p : t.positions) half_width = std::max(half_width, std::abs(p.x()) * 1.05);
-    }
-  }
-  for (int panel = 0; panel < 2; ++panel) {
-    const int ox = panel * panel_w;
-    // x across (±half_width), z in [0, 75] m up.
-    auto toPixel = [&](const Eigen::Vector2d& p) {
-      return cv::Point(ox + panel_w / 2 +
-                           static_cast<int>(p.x() * (panel_w - 2 * margin) / (2.0 * half_width)),
-                       height - margin - static_cast<int>(p.y() * (height - 2 * margin) / 75.0));
-    };
-    cv::line(image, toPixel({-1, 0}), toPixel({-1, 75}), cv::Scalar(180, 180, 180), 1);
-    cv::line(image, toPixel({1, 0}), toPixel({1, 75}), cv::Scalar(180, 180, 180), 1);
-    cv::line(image, toPixel({0, 0}), toPixel({0, 75}), cv::Scalar(0, 160, 0), 1, cv::LINE_AA);
-    for (const int mode : {0, 2, 1}) {  // μ last: it coincides with complete motion early on
-      const auto& positions = runs[panel][mode].positions;
-      for (std::size_t i = 1; i < positions.size(); ++i) {
-        cv::line(image, toPixel(positions[i - 1]), toPixel(positions[i]), colours[mode], 2, cv::LINE_AA);
-      }
-      cv::putText(image, names[mode], cv::Point(ox + 10, 40 + 18 * mode), cv::FONT_HERSHEY_SIMPLEX,
-                  0.5, colours[mode], 1, cv::LINE_AA);
-    }
-    cv::putText(image, titles[panel], cv::Point(ox + 10, 18), cv::FONT_HERSHEY_SIMPLEX, 0.55,
-                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  }
-  if (!cv::imwrite(path, image)) std::cerr << "eval_mu: cannot write " << path << "\n";
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   cli::Arguments args("eval_mu",
-                       {{"json", ""}, {"plot", "corridor.png"}, {"seed", "1"}, {"runs", "100"},
-                        {"lines", "20"}, {"axis-offset", "0"}},
-                       "[--json F] [--plot PNG] [--seed S] [--runs N] [--lines N] [--axis-offset M]");
+                       {{"json", ""}, {"seed", "1"}, {"runs", "100"}, {"lines", "20"}, {"axis-offset", "0"}},
+                       "[--json F] [--seed S] [--runs N] [--lines N] [--axis-offset M]");
   args.parse(argc, argv);
   const int runs = args.integer("runs");
   const int line_count = args.integer("lines");
@@ -280,15 +240,17 @@ int main(int argc, char** argv) {
     for (int mode = 0; mode < 3; ++mode) {
       trajectories[drift].push_back(runCorridor(mode, drift == 1, seed));
     }
+    // The trajectories (x across, z along the corridor [m]) for scripts/plot_evaluation.
+    auto positions = [&](int mode) {
+      nlohmann::json xz = nlohmann::json::array();
+      for (const auto& p : trajectories[drift][static_cast<std::size_t>(mode)].positions) xz.push_back({p.x(), p.y()});
+      return xz;
+    };
     document["corridor"][run_names[drift]] = {
         {"none_final_lateral_error_m", trajectories[drift][0].final_lateral_error},
         {"mu_final_lateral_error_m", trajectories[drift][1].final_lateral_error},
-        {"ca_final_lateral_error_m", trajectories[drift][2].final_lateral_error}};
-  }
-  const std::string plot = args.text("plot");
-  if (!plot.empty()) {
-    drawPlot(plot, trajectories);
-    document["corridor"]["plot"] = plot;
+        {"ca_final_lateral_error_m", trajectories[drift][2].final_lateral_error},
+        {"trajectories_xz_m", {{"none", positions(0)}, {"mu", positions(1)}, {"complete_motion", positions(2)}}}};
   }
   document["setup"] = {{"runs", runs}, {"lines", line_count}, {"seed", seed},
                        {"f_px", kCamera.f}, {"width_px", kWidth}, {"noise_px", 1.0},

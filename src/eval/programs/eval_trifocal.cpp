@@ -11,9 +11,8 @@
 // from odometry"), so the figures measure the tensor, not the disambiguation.
 // Also the measured mean RANSAC iteration counts at 40 % wrong matches and P = 0.99, and one PNG
 // per figure.
-//   rosrun homography_teach_repeat eval_trifocal [--runs 100] [--json F] [--plot-prefix P] [--seed S]
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+//   rosrun homography_teach_repeat eval_trifocal [--runs 100] [--json F] [--seed S]
+// Plots of Fig. 3 and Fig. 4 from the JSON: scripts/plot_evaluation F.
 
 #include <algorithm>
 #include <cmath>
@@ -120,50 +119,6 @@ nlohmann::json toJson(const std::map<std::string, Curve>& curves) {
   return j;
 }
 
-// Rotation and direction RMS vs noise, one column per movement.
-void drawFigure(const std::string& path, const std::string& title,
-                const std::map<std::string, std::map<std::string, Curve>>& panels) {
-  const int w = 360, h = 260, margin = 40;
-  cv::Mat image(2 * h + 30, static_cast<int>(panels.size()) * w, CV_8UC3, cv::Scalar(255, 255, 255));
-  const cv::Scalar colours[] = {cv::Scalar(0, 0, 220), cv::Scalar(220, 120, 0), cv::Scalar(0, 150, 0)};
-  cv::putText(image, title, cv::Point(10, 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  int column = 0;
-  for (const auto& [movement, curves] : panels) {
-    for (int row = 0; row < 2; ++row) {
-      double top = 1e-6;
-      for (const auto& [name, c] : curves) {
-        for (const double v : row == 0 ? c.rms_rot_deg : c.rms_dir_deg) top = std::max(top, v * 1.1);
-      }
-      const int ox = column * w, oy = 30 + row * h;
-      auto toPixel = [&](double noise, double value) {
-        return cv::Point(ox + margin + static_cast<int>(noise * (w - 2 * margin)),
-                         oy + h - margin - static_cast<int>(value / top * (h - 2 * margin)));
-      };
-      cv::rectangle(image, toPixel(0, 0), toPixel(1, top), cv::Scalar(180, 180, 180), 1);
-      const std::string label = movement + (row == 0 ? ": rotation RMS [deg]" : ": t direction RMS [deg]");
-      cv::putText(image, label, cv::Point(ox + margin, oy + 15), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
-                  cv::LINE_AA);
-      cv::putText(image, "max " + std::to_string(top).substr(0, 5), cv::Point(ox + 2, oy + margin),
-                  cv::FONT_HERSHEY_SIMPLEX, 0.35, cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
-      cv::putText(image, "noise 0..1 px", cv::Point(ox + w / 2 - 40, oy + h - 12), cv::FONT_HERSHEY_SIMPLEX, 0.35,
-                  cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
-      int index = 0;
-      for (const auto& [name, c] : curves) {
-        const auto& values = row == 0 ? c.rms_rot_deg : c.rms_dir_deg;
-        for (std::size_t i = 1; i < values.size(); ++i) {
-          cv::line(image, toPixel(c.noise_px[i - 1], values[i - 1]), toPixel(c.noise_px[i], values[i]),
-                   colours[index % 3], 2, cv::LINE_AA);
-        }
-        cv::putText(image, name, cv::Point(ox + w - margin - 40, oy + 35 + 15 * index), cv::FONT_HERSHEY_SIMPLEX,
-                    0.45, colours[index % 3], 1, cv::LINE_AA);
-        ++index;
-      }
-    }
-    ++column;
-  }
-  if (!cv::imwrite(path, image)) std::cerr << "eval_trifocal: cannot write " << path << "\n";
-}
-
 // Mean RANSAC iterations over `runs` scenes of 50 triplets with 40 % wrong matches (TT4: 20 on
 // the wall, 10 off it, 20 wrong — the composition of Fig. 4).
 nlohmann::json ransacIterations(int runs, unsigned seed) {
@@ -212,8 +167,8 @@ nlohmann::json ransacIterations(int runs, unsigned seed) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  cli::Arguments args("eval_trifocal", {{"json", ""}, {"plot-prefix", "trifocal"}, {"seed", "1"}, {"runs", "100"}},
-                       "[--json F] [--plot-prefix P (P_fig3.png, P_fig4.png; empty: none)] [--seed S] [--runs N]");
+  cli::Arguments args("eval_trifocal", {{"json", ""}, {"seed", "1"}, {"runs", "100"}},
+                       "[--json F] [--seed S] [--runs N]   (plots: scripts/plot_evaluation F)");
   args.parse(argc, argv);
   const int runs = args.integer("runs");
   if (runs < 1) args.fail("--runs must be >= 1");
@@ -245,12 +200,6 @@ int main(int argc, char** argv) {
   document["ransac_iterations"] = ransacIterations(runs, seed);
   document["runs"] = runs;
   document["camera"] = {{"fov_deg", 53.0}, {"width_px", 1024}};
-  const std::string prefix = args.text("plot-prefix");
-  if (!prefix.empty()) {
-    drawFigure(prefix + "_fig3.png", "Fig. 3: TT7 vs TT5, 30 random matches", fig3);
-    drawFigure(prefix + "_fig4.png", "Fig. 4: TT5 vs TT4, dominant plane (20 on it, 10 off)", fig4);
-    document["plots"] = {prefix + "_fig3.png", prefix + "_fig4.png"};
-  }
   for (const auto& [figure, panels] : {std::make_pair("fig3", &fig3), std::make_pair("fig4", &fig4)}) {
     for (const auto& [movement, curves] : *panels) {
       for (const auto& [method, c] : curves) {

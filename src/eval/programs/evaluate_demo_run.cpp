@@ -1,5 +1,5 @@
-// evaluate_demo_run: scores simulated repeat runs against the taught path by ground truth and draws
-// them (scripts/demo).
+// evaluate_demo_run: scores simulated repeat runs against the taught path by ground truth
+// (scripts/demo).
 //   evaluate_demo_run --world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag]
 //                     [--laps N] [--mode M] --out DIR
 // Writes DIR/metrics.json: {"laps", "mode", "final_pos_err_m", "final_heading_err_deg",
@@ -12,7 +12,10 @@
 // plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
 // must end at (a loop: its first keyframe, where the robot started; an open route: its last);
 // max/mean/final_path: distance to the polyline through the taught keyframes. And
-// DIR/trajectory.png (top view: walls, taught path, repeated path, odometry-only path).
+// DIR/trajectory.json, what the top view shows (scripts/plot_evaluation draws DIR/trajectory.png):
+// {"kind": "demo_trajectory", "mode", "laps", "walls": [[[x, y], [x, y]], ...], "taught_path",
+// "repeated", "odometry_only", "published": [[x, y], ...] in metres (ground truth every 0.05 s),
+// "published_error_m": [[t, error], ...] of the published poses against the ground truth}.
 // "localization": how the repeat_node's published pose (repeat_node/pose) compares with the ground
 // truth at the pose's stamp (interpolated), and whether its covariance is honest
 // (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
@@ -27,8 +30,6 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -114,6 +115,45 @@ nlohmann::json scoreLocalization(const Run& run) {
 
 }  // namespace
 
+// Every `stride`-th pose as [x, y] (the plot needs the shape, not 200 samples per second).
+nlohmann::json xyEvery(const std::vector<htr::Pose2D>& poses, const std::vector<double>& stamps, double period) {
+  nlohmann::json xy = nlohmann::json::array();
+  double last = -1e18;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (i + 1 < poses.size() && !stamps.empty() && stamps[i] - last < period) continue;
+    if (!stamps.empty()) last = stamps[i];
+    xy.push_back({poses[i].x, poses[i].y});
+  }
+  return xy;
+}
+
+void writeTrajectory(const std::filesystem::path& file, const htr::PlanarWorld& world, const std::vector<htr::Pose2D>& path,
+                     const Run& run, const Run& baseline, const htr::cli::Arguments& args) {
+  nlohmann::json t;
+  t["kind"] = "demo_trajectory";
+  t["mode"] = args.text("mode");
+  t["laps"] = args.integer("laps");
+  t["walls"] = nlohmann::json::array();
+  for (const auto& w : world.walls) t["walls"].push_back({{w.start.x(), w.start.y()}, {w.end.x(), w.end.y()}});
+  t["taught_path"] = xyEvery(path, {}, 0.0);
+  constexpr double kPeriod = 0.05;  // [s]
+  t["repeated"] = xyEvery(run.truth, run.truth_stamps, kPeriod);
+  t["odometry_only"] = xyEvery(baseline.truth, baseline.truth_stamps, kPeriod);
+  std::vector<htr::Pose2D> published;
+  for (const auto& e : run.estimates) published.push_back(e.pose);
+  t["published"] = xyEvery(published, {}, 0.0);
+  // The published poses against the ground truth at their stamps.
+  htr::OdometryBuffer truth(std::numeric_limits<double>::max(), 0.5);
+  for (std::size_t i = 0; i < run.truth.size(); ++i) truth.add(run.truth_stamps[i], run.truth[i]);
+  t["published_error_m"] = nlohmann::json::array();
+  const double start = run.truth_stamps.empty() ? 0.0 : run.truth_stamps.front();
+  for (const auto& e : run.estimates) {
+    const auto at = truth.poseAt(e.stamp);
+    if (at) t["published_error_m"].push_back({e.stamp - start, std::hypot(e.pose.x - at->x, e.pose.y - at->y)});
+  }
+  std::ofstream(file) << t.dump() << "\n";
+}
+
 int main(int argc, char** argv) {
   htr::cli::Arguments args("evaluate_demo_run",
                             {{"world", ""}, {"route", ""}, {"bag", ""}, {"baseline-bag", ""}, {"laps", "1"},
@@ -186,41 +226,7 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(out);
     std::ofstream(out / "metrics.json") << metrics.dump(2) << "\n";
 
-    // Top view: 100 px per metre over the walls' bounding box plus a margin.
-    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-    for (const auto& w : world->walls) {
-      for (const auto& p : {w.start, w.end}) {
-        x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
-      }
-    }
-    const double scale = 100.0, margin = 0.5;
-    cv::Mat canvas(static_cast<int>((y1 - y0 + 2 * margin) * scale), static_cast<int>((x1 - x0 + 2 * margin) * scale),
-                   CV_8UC3, cv::Scalar(255, 255, 255));
-    auto px = [&](double x, double y) {
-      return cv::Point(static_cast<int>((x - x0 + margin) * scale), static_cast<int>((y1 + margin - y) * scale));
-    };
-    for (const auto& w : world->walls) {
-      cv::line(canvas, px(w.start.x(), w.start.y()), px(w.end.x(), w.end.y()), cv::Scalar(0, 0, 0), 4);
-    }
-    auto polyline = [&](const std::vector<htr::Pose2D>& poses, const cv::Scalar& colour, int thickness) {
-      for (std::size_t i = 1; i < poses.size(); ++i) {
-        cv::line(canvas, px(poses[i - 1].x, poses[i - 1].y), px(poses[i].x, poses[i].y), colour, thickness, cv::LINE_AA);
-      }
-    };
-    polyline(baseline.truth, cv::Scalar(0, 0, 220), 1);
-    polyline(path, cv::Scalar(0, 170, 0), 5);
-    polyline(run.truth, cv::Scalar(220, 60, 0), 1);
-    for (const auto& k : path) cv::circle(canvas, px(k.x, k.y), 4, cv::Scalar(0, 120, 0), cv::FILLED);
-    const int line_height = 22;
-    cv::putText(canvas, "taught path (keyframes)", cv::Point(10, line_height), cv::FONT_HERSHEY_SIMPLEX, 0.55,
-                cv::Scalar(0, 150, 0), 1, cv::LINE_AA);
-    cv::putText(canvas, "repeated (" + args.text("mode") + "), ground truth", cv::Point(10, 2 * line_height),
-                cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(220, 60, 0), 1, cv::LINE_AA);
-    if (!baseline.truth.empty()) {
-      cv::putText(canvas, "odometry only, ground truth", cv::Point(10, 3 * line_height), cv::FONT_HERSHEY_SIMPLEX,
-                  0.55, cv::Scalar(0, 0, 220), 1, cv::LINE_AA);
-    }
-    cv::imwrite((out / "trajectory.png").string(), canvas);
+    writeTrajectory(out / "trajectory.json", *world, path, run, baseline, args);
     std::cout << metrics.dump(2) << "\n";
     // The short summary.
     std::printf("\n%s, %d lap(s): the robot ended %.3f m / %.2f deg from the route's end pose (path error mean "
