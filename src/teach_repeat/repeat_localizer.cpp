@@ -101,7 +101,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
       last_failure = Status(estimate.status().code(), "keyframe " + std::to_string(k) + ": " + estimate.status().message());
       continue;
     }
-    keepAsTemporaryReference(frame, *estimate, keyframes_.at(k));
+    keepAsTemporaryReference(frame, *estimate, keyframes_.at(k).plane);
     degraded_frames_ = 0;
     rememberForTracking(*estimate, gray, 0);
     advanceTracking(*estimate);
@@ -119,8 +119,8 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   ++degraded_frames_;
   if (estimate->has_pose) {
     // Chain: this frame is the next temporary reference (paper 000, outdoor experiment).
-    const KeyframeReference previous = *temporary_;
-    keepAsTemporaryReference(frame, *estimate, previous);
+    const std::optional<ScenePlane> plane = temporary_->plane;  // the next one replaces it
+    keepAsTemporaryReference(frame, *estimate, plane);
     estimate->heading_correction =
         wrapToPi(estimate->base_pose.yaw - route_.keyframes[static_cast<std::size_t>(temporary_keyframe_)].pose.yaw);
   }
@@ -128,14 +128,15 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
 }
 
 void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
-                                               const KeyframeReference& from) {
+                                               const std::optional<ScenePlane>& from_plane) {
   KeyframeReference current;
   current.features = std::move(frame.features);
   current.lines = std::move(frame.lines);
   if (estimate.has_pose) {
     // The frame's pose, and the reference's plane seen from it; without a plane it cannot serve.
     current.base_pose = estimate.base_pose;
-    const auto plane = transferPlane(*from.plane, estimate.camera_relative);
+    if (!from_plane) return;
+    const auto plane = transferPlane(*from_plane, estimate.camera_relative);
     if (!plane) return;
     current.plane = *plane;
   } else {

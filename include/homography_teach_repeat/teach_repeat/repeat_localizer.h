@@ -73,8 +73,10 @@ class RepeatLocalizer {
                                                      const std::optional<Pose2D>& predicted_pose, int neighbour_search,
                                                      int max_degraded_frames);
   Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray);
-  // The frame that just localized against keyframe `k` becomes the temporary reference.
-  void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate, const KeyframeReference& from);
+  // The frame that just localized against a reference whose plane is `from_plane` becomes the
+  // temporary reference (a pose estimate needs that plane seen from the frame).
+  void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
+                                const std::optional<ScenePlane>& from_plane);
   // Keeps the estimate's inliers for the optical flow of the next frames (or forgets them).
   void rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked);
   void advanceTracking(const RepeatEstimate& estimate);
