@@ -7,12 +7,9 @@
 
 namespace homography_teach_repeat {
 
-Status PoseConsistency::add(const Pose2D& estimate, const Eigen::Matrix3d& covariance,
-                            const Pose2D& truth) {
-  auto reject = [this](const char* why) {
-    ++rejected_;
-    return Status(StatusCode::kInvalidInput, why);
-  };
+Expected<double> normalizedEstimationErrorSquared(const Pose2D& estimate, const Eigen::Matrix3d& covariance,
+                                                  const Pose2D& truth) {
+  auto reject = [](const char* why) { return Status(StatusCode::kInvalidInput, why); };
   if (!estimate.isFinite() || !truth.isFinite()) return reject("non-finite pose");
   if (!covariance.allFinite()) return reject("non-finite covariance");
   // Relative tolerance: the covariance comes from a float64 message, symmetric up to rounding.
@@ -21,18 +18,27 @@ Status PoseConsistency::add(const Pose2D& estimate, const Eigen::Matrix3d& covar
     return reject("asymmetric covariance");
   }
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(covariance);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
-      (ldlt.vectorD().array() <= 0.0).any()) {
+  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) {
     return reject("covariance not positive definite");
   }
   const Eigen::Vector3d error(estimate.x - truth.x, estimate.y - truth.y,
                               wrapToPi(estimate.yaw - truth.yaw));
+  return error.dot(ldlt.solve(error));
+}
+
+Status PoseConsistency::add(const Pose2D& estimate, const Eigen::Matrix3d& covariance,
+                            const Pose2D& truth) {
+  const auto nees = normalizedEstimationErrorSquared(estimate, covariance, truth);
+  if (!nees) {
+    ++rejected_;
+    return nees.status();
+  }
   Sample s{};
-  s.position_error_squared = error.head<2>().squaredNorm();
-  s.heading_error_squared = error.z() * error.z();
+  s.position_error_squared = std::pow(estimate.x - truth.x, 2) + std::pow(estimate.y - truth.y, 2);
+  s.heading_error_squared = std::pow(wrapToPi(estimate.yaw - truth.yaw), 2);
   s.position_variance = covariance(0, 0) + covariance(1, 1);
   s.heading_variance = covariance(2, 2);
-  s.nees = error.dot(ldlt.solve(error));
+  s.nees = *nees;
   samples_.push_back(s);
   return Status::ok();
 }

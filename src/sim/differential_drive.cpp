@@ -32,6 +32,40 @@ void DriveLimits::validate() const {
   }
 }
 
+std::pair<double, double> measuredMotion(double distance, double turn,
+                                         const OdometryErrorModel& model, cv::RNG& rng) {
+  double measured_distance = (1.0 + model.scale_error) * distance;
+  double measured_turn = turn + model.heading_bias_per_metre * distance;
+  if (distance > 0.0) {
+    measured_distance += rng.gaussian(model.distance_noise * std::sqrt(distance));
+    measured_turn += rng.gaussian(model.heading_noise * std::sqrt(distance));
+  }
+  return {measured_distance, measured_turn};
+}
+
+SynthesizedOdometry::SynthesizedOdometry(const OdometryErrorModel& model, std::uint64_t seed)
+    : model_(model), rng_(seed) {
+  model_.validate();
+}
+
+Pose2D SynthesizedOdometry::add(const Pose2D& truth) {
+  if (!started_) {
+    started_ = true;
+    last_truth_ = truth;
+    odometry_ = truth;
+    return odometry_;
+  }
+  const Pose2D increment = last_truth_.inverse().compose(truth);
+  last_truth_ = truth;
+  const double distance = std::hypot(increment.x, increment.y);
+  const auto [measured_distance, measured_turn] =
+      measuredMotion(distance, increment.yaw, model_, rng_);
+  // The direction of travel in the body frame is kept; its heading error grows with the turn.
+  const double stretch = distance > 0.0 ? measured_distance / distance : 0.0;
+  odometry_ = odometry_.compose(Pose2D(stretch * increment.x, stretch * increment.y, measured_turn));
+  return odometry_;
+}
+
 Pose2D integrateArc(const Pose2D& pose, double v, double w, double dt) {
   const double dtheta = w * dt;
   if (std::abs(dtheta) < 1e-9) {
@@ -63,12 +97,8 @@ std::pair<double, double> DifferentialDriveSim::step(double v, double w, double 
   const double distance = std::abs(v * dt);
   distance_ += distance;
   // Odometry: the measured arc (scaled distance, biased and noisy heading change).
-  double measured_distance = (1.0 + errors_.scale_error) * v * dt;
-  double measured_turn = w * dt + errors_.heading_bias_per_metre * distance;
-  if (distance > 0.0) {
-    measured_distance += rng_.gaussian(errors_.distance_noise * std::sqrt(distance));
-    measured_turn += rng_.gaussian(errors_.heading_noise * std::sqrt(distance));
-  }
+  const auto [measured_length, measured_turn] = measuredMotion(distance, w * dt, errors_, rng_);
+  const double measured_distance = v < 0.0 ? -measured_length : measured_length;
   odometry_ = integrateArc(odometry_, measured_distance / dt, measured_turn / dt, dt);
   return {v, w};
 }

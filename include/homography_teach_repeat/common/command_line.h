@@ -9,6 +9,8 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <vector>
+#include <algorithm>
 
 namespace homography_teach_repeat {
 namespace cli {
@@ -46,6 +48,32 @@ class Arguments {
     } catch (const std::exception&) {
       fail("--" + key + " needs a number, got '" + values_.at(key) + "'");
     }
+  }
+
+  // A comma-separated list of integers ("0,2,4"), each in [0, limit); empty text: `fallback`.
+  std::vector<int> indices(const std::string& key, int limit, std::vector<int> fallback) const {
+    const std::string& text = values_.at(key);
+    if (text.empty()) return fallback;
+    std::vector<int> result;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+      const std::size_t end = std::min(text.find(',', start), text.size());
+      const std::string item = text.substr(start, end - start);
+      std::size_t used = 0;
+      int value = -1;
+      try {
+        value = std::stoi(item, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != item.size()) fail("--" + key + ": '" + item + "' is not an integer");
+      if (value < 0 || value >= limit) {
+        fail("--" + key + ": index " + item + " is outside 0.." + std::to_string(limit - 1));
+      }
+      result.push_back(value);
+      start = end + 1;
+    }
+    return result;
   }
 
   [[noreturn]] void fail(const std::string& message) const {

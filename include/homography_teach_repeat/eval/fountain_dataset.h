@@ -1,5 +1,6 @@
-// The Strecha fountain-P11 sequence (../shared/realdata/strecha_fountain/fountain-P11: 11 photos
-// of a wall with ground-truth cameras, see its README) as the evaluation programs use it: images
+// A Strecha multi-view set (e.g. ../shared/realdata/strecha_fountain/fountain-P11: 11 photos of a
+// wall with ground-truth cameras, see its README; any number of views, images/NNNN.jpg and
+// gt_dense_cameras/NNNN.jpg.camera counted from 0000) as the evaluation programs use it: images
 // downscaled to robot resolution, and every camera's gravity alignment (a rotation to a level
 // virtual camera whose y axis is the sequence's mean "down"; the role of a robot's camera mount
 // or IMU). Only the tilt of each camera comes from the ground truth here; evaluations take
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -24,36 +26,17 @@
 #include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/eval/recorded_sequence.h"
 
 namespace homography_teach_repeat {
 namespace eval {
 
-struct GroundTruthCamera {
-  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // camera-to-world
-  Eigen::Vector3d C = Eigen::Vector3d::Zero();      // centre, world
-  int width = 0, height = 0;
-};
-
-inline std::string fountainImageName(int index) {
-  std::ostringstream s;
-  s << std::setw(4) << std::setfill('0') << index << ".jpg";
-  return s.str();
-}
+inline std::string fountainImageName(int index) { return strechaImageName(index); }
 
 inline GroundTruthCamera readGroundTruthCamera(const std::string& path, const cli::Arguments& args) {
-  std::ifstream in(path);
-  if (!in) args.fail("cannot open ground-truth camera '" + path + "'");
-  GroundTruthCamera cam;
-  double distortion[3];
-  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.K(r, c);
-  for (double& d : distortion) in >> d;
-  for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) in >> cam.R(r, c);
-  in >> cam.C(0) >> cam.C(1) >> cam.C(2) >> cam.width >> cam.height;
-  if (!in || !cam.K.allFinite() || !cam.R.allFinite() || cam.width <= 0) {
-    args.fail("ground-truth camera '" + path + "' is truncated or malformed");
-  }
-  return cam;
+  auto camera = readStrechaCamera(path);
+  if (!camera) args.fail(camera.status().message());
+  return *camera;
 }
 
 struct FountainView {
@@ -66,9 +49,17 @@ struct FountainView {
 
 class FountainSequence {
  public:
+  // Reads the views 0000, 0001, ... up to the first index without an image; fewer than 2 views,
+  // or an image without its camera file, stop the program with a message naming the file.
   FountainSequence(const std::string& dir, double scale, const cli::Arguments& args) {
-    views_.resize(11);
-    for (int i = 0; i < 11; ++i) {
+    int count = 0;
+    while (std::filesystem::exists(dir + "/images/" + fountainImageName(count))) ++count;
+    if (count < 2) {
+      args.fail("'" + dir + "' holds " + std::to_string(count) +
+                " views (images/0000.jpg, 0001.jpg, ...); at least 2 are needed");
+    }
+    views_.resize(count);
+    for (int i = 0; i < count; ++i) {
       views_[i].gt = readGroundTruthCamera(
           dir + "/gt_dense_cameras/" + fountainImageName(i) + ".camera", args);
     }
@@ -86,18 +77,14 @@ class FountainSequence {
     calibration_.fy = K_(1, 1);
     calibration_.cx = K_(0, 2);
     calibration_.cy = K_(1, 2);
-    for (int i = 0; i < 11; ++i) {
+    for (int i = 0; i < count; ++i) {
       FountainView& v = views_[i];
       const std::string path = dir + "/images/" + fountainImageName(i);
       cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
       if (image.empty()) args.fail("cannot read image '" + path + "'");
       cv::resize(image, v.image, cv::Size(calibration_.width, calibration_.height), 0, 0,
                  cv::INTER_AREA);
-      // Level frame: y = down, z = the optical axis made horizontal.
-      const Eigen::Vector3d z = (v.gt.R.col(2) - v.gt.R.col(2).dot(down) * down).normalized();
-      v.level.col(1) = down;
-      v.level.col(2) = z;
-      v.level.col(0) = down.cross(z);
+      v.level = levelAxes(v.gt.R, down);
       const Eigen::Matrix3d Q = v.level.transpose() * v.gt.R;  // camera -> level
       v.rectification = K_ * Q * K_.inverse();
       v.tilt_deg = Eigen::AngleAxisd(Q).angle() * 180.0 / M_PI;
@@ -105,6 +92,7 @@ class FountainSequence {
   }
 
   const std::vector<FountainView>& views() const { return views_; }
+  int size() const { return static_cast<int>(views_.size()); }
   const Eigen::Matrix3d& K() const { return K_; }
   const CameraCalibration& calibration() const { return calibration_; }
 

@@ -31,6 +31,11 @@ struct PoseConsistencySummary {
   double fraction_above_chi2_95 = 0.0;  // consistent: 0.05
 };
 
+// The NEES of one estimate (e = estimate − truth, yaw wrapped); kInvalidInput for a non-finite pose or
+// covariance or one that is not symmetric positive definite.
+Expected<double> normalizedEstimationErrorSquared(const Pose2D& estimate, const Eigen::Matrix3d& covariance,
+                                                  const Pose2D& truth);
+
 class PoseConsistency {
  public:
   // `covariance`: of (x, y, yaw) in the frame of the poses. kInvalidInput (the sample is not

@@ -22,6 +22,31 @@ struct OdometryErrorModel {
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
 
+// What the odometry measures of a motion that covered `distance` [m] (>= 0) and turned `turn`
+// [rad]: (measured distance, measured turn) under `model`, its noise drawn from `rng`. The one
+// error model of the simulator's base and of the odometry evaluate_sequence synthesizes for data
+// sets without wheel odometry.
+std::pair<double, double> measuredMotion(double distance, double turn,
+                                         const OdometryErrorModel& model, cv::RNG& rng);
+
+// Odometry synthesized from ground-truth poses (data sets without wheel odometry, e.g. KITTI):
+// each increment between consecutive truths, in the body frame of the previous one, is measured
+// through measuredMotion (its direction kept, its length and turn corrupted) and integrated.
+class SynthesizedOdometry {
+ public:
+  // Throws std::invalid_argument on an invalid model.
+  SynthesizedOdometry(const OdometryErrorModel& model, std::uint64_t seed);
+  // The odometry pose for the next ground-truth pose (the first is returned unchanged).
+  Pose2D add(const Pose2D& truth);
+
+ private:
+  OdometryErrorModel model_;
+  cv::RNG rng_;
+  bool started_ = false;
+  Pose2D last_truth_;
+  Pose2D odometry_;
+};
+
 struct DriveLimits {
   double max_linear_velocity = 1.0;   // [m/s] > 0
   double max_angular_velocity = 2.0;  // [rad/s] > 0

@@ -2,9 +2,12 @@
 // cameras (Strecha fountain-P11, ../shared/realdata; never copied into the repository).
 //
 //   rosrun homography_teach_repeat eval_real_fast_hd --data DIR [--json F] [--scale 0.25]
-//          [--feature sift] [--max-features 4000] [--sigma 0.5]
+//          [--feature sift] [--max-features 4000] [--sigma 0.5] [--references 0,2,4]
+//          [--repeats 1,3]
 //
-// Images 0,2,4,6,8,10 are the taught references, 1,3,5,7,9 the repeat images. Pipeline:
+// Any Strecha set (fountain_dataset.h). By default the even views are the taught references and
+// the odd ones the repeat images; --references / --repeats choose others (each a
+// comma-separated list of view indices; references in the order driven). Pipeline:
 //  1. gravity alignment: every camera is rotated (in pixel space, p' = K Q K⁻¹ p) to a level
 //     virtual camera whose y axis is the mean "down" of the sequence. This is the role of the
 //     camera mount / IMU of a robot; only the tilt of each camera is taken from the ground
@@ -15,8 +18,8 @@
 //     broken by the third view); the only metric ground truth used is the distance of the wall
 //     from image 0 (the user-given scale), measured here by triangulating the first pair's wall
 //     inliers with the ground-truth cameras and fitting a plane;
-//  4. each repeat image against its neighbouring references: the one giving most inliers is
-//     used; pose (Fast-HD + 3-DoF refinement) and covariance.
+//  4. each repeat image against the references before and after it (by index): the one giving
+//     most inliers is used; pose (Fast-HD + 3-DoF refinement) and covariance.
 // Errors against the ground-truth pose of the level repeat camera in the level reference frame
 // (x, z; the small height differences of the real cameras are ignored, as a planar robot would).
 #include <nlohmann/json.hpp>
@@ -68,9 +71,10 @@ PointMatches rectifiedMatches(const eval::FountainView& a, const ImageFeatures& 
 int main(int argc, char** argv) {
   cli::Arguments args("eval_real_fast_hd",
                        {{"data", ""}, {"json", ""}, {"scale", "0.25"}, {"feature", "sift"},
-                        {"max-features", "4000"}, {"sigma", "0.5"}},
+                        {"max-features", "4000"}, {"sigma", "0.5"}, {"references", ""},
+                        {"repeats", ""}},
                        "--data DIR [--json F] [--scale S] [--feature T] [--max-features N] "
-                       "[--sigma PX]");
+                       "[--sigma PX] [--references I,J,..] [--repeats I,J,..]");
   args.parse(argc, argv);
   const std::string dir = args.text("data");
   if (dir.empty()) args.fail("--data DIR (fountain-P11 folder) is required");
@@ -100,7 +104,12 @@ int main(int argc, char** argv) {
   pose_options.validate();
 
   // References and their consecutive homographies.
-  const std::vector<int> references{0, 2, 4, 6, 8, 10};
+  std::vector<int> even_views, odd_views;
+  for (int i = 0; i < sequence.size(); ++i) (i % 2 == 0 ? even_views : odd_views).push_back(i);
+  const std::vector<int> references = args.indices("references", sequence.size(), even_views);
+  const std::vector<int> repeats = args.indices("repeats", sequence.size(), odd_views);
+  if (references.size() < 2) args.fail("--references: at least 2 views are needed");
+  if (repeats.empty()) args.fail("--repeats: no view to repeat");
   std::vector<ReferencePair> pairs;
   PointMatches first_pair_wall;  // raw pixels of the first pair's inliers (for the scale)
   nlohmann::json pair_json = nlohmann::json::array();
@@ -160,11 +169,18 @@ int main(int argc, char** argv) {
   std::vector<double> heading_errors, position_pct;
   std::cout << "first-plane distance (user scale) " << std::setprecision(4) << first_plane_distance
             << " m; max tilt corrected " << max_tilt_deg << " deg\n";
-  for (const int j : {1, 3, 5, 7, 9}) {
+  for (const int j : repeats) {
     int best_reference = -1;
     Expected<PlanarPoseEstimate> best = Status(StatusCode::kNoConsensus, "no reference tried");
-    for (const int r : {j - 1, j + 1}) {
-      const std::size_t k = static_cast<std::size_t>(r / 2);
+    // The references nearest before and after view j (by index).
+    std::vector<std::size_t> neighbours;
+    for (std::size_t k = 0; k < references.size(); ++k) {
+      if (references[k] < j && (k + 1 == references.size() || references[k + 1] >= j)) neighbours.push_back(k);
+      if (references[k] > j && (k == 0 || references[k - 1] <= j)) neighbours.push_back(k);
+      if (references[k] == j) neighbours.push_back(k);
+    }
+    for (const std::size_t k : neighbours) {
+      const int r = references[k];
       PointMatches raw;
       const PointMatches matches =
           rectifiedMatches(views[r], features[r], views[j], features[j], match_options, &raw);

@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
   nlohmann::json pairs = nlohmann::json::array();
   std::vector<double> mu_errors, ca_errors, residual_errors;
   std::cout << std::fixed << std::setprecision(3);
-  for (int i = 0; i + 1 < 11; ++i) {
+  for (int i = 0; i + 1 < sequence.size(); ++i) {
     const int j = i + 1;
     const PlanarPose truth = sequence.relativePose(i, j);
     nlohmann::json pair{{"pair", {i, j}}, {"theta_true_deg", truth.theta * kRadToDeg},

@@ -1,0 +1,236 @@
+// evaluate_sequence: teach and repeat offline over recorded data, scored against its ground truth
+// (docs/evaluation.md, "Recorded sequences"). The same TeachSession and RepeatPipeline the nodes
+// run (sequence_evaluation.h).
+//
+//   evaluate_sequence (--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR [options]
+//
+// Sources: the KITTI odometry layout; a Strecha set of any number of views; a rosbag (images +
+// camera_info, odometry, the tf of the camera mount, optionally a ground-truth odometry topic),
+// teach and repeat from two bags or two time ranges of one (--teach-time / --repeat-time).
+// Which frames are taught: --keyframes policy (the teach node's distance/angle policy over the
+// teach frames), stride (every --stride-th), list (--teach-frames). With one recording, the
+// frames not taught are repeated (--repeat-frames narrows them). Writes DIR/sequence.json and,
+// through plot_evaluation, DIR/sequence_top.png, DIR/sequence_error.png, DIR/sequence_nees.png.
+// Exit 2 on bad input (with a message naming it), 0 otherwise.
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+
+#include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/eval/recorded_sequence.h"
+#include "homography_teach_repeat/eval/sequence_evaluation.h"
+#ifdef HTR_WITH_ROSBAG
+#include "homography_teach_repeat/eval/bag_sequence.h"
+#endif
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// "A:B" -> [A, B] (either side may be empty: open).
+std::pair<double, double> rangeOf(const cli::Arguments& args, const std::string& key) {
+  const std::string& text = args.text(key);
+  if (text.empty()) return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) args.fail("--" + key + " needs FROM:TO, got '" + text + "'");
+  auto side = [&](const std::string& part, double fallback) {
+    if (part.empty()) return fallback;
+    try {
+      std::size_t used = 0;
+      const double value = std::stod(part, &used);
+      if (used != part.size()) throw std::invalid_argument(part);
+      return value;
+    } catch (const std::exception&) {
+      args.fail("--" + key + ": '" + part + "' is not a number");
+    }
+  };
+  return {side(text.substr(0, colon), -std::numeric_limits<double>::infinity()),
+          side(text.substr(colon + 1), std::numeric_limits<double>::infinity())};
+}
+
+std::vector<int> framesIn(const eval::RecordedSequence& sequence, std::pair<double, double> range, bool by_index) {
+  std::vector<int> frames;
+  for (int i = 0; i < static_cast<int>(sequence.stamps.size()); ++i) {
+    const double key = by_index ? i : sequence.stamps[static_cast<std::size_t>(i)] - sequence.stamps.front();
+    if (key >= range.first && key <= range.second) frames.push_back(i);
+  }
+  return frames;
+}
+
+int drawPlots(const std::string& json_path) {
+  std::vector<std::string> candidates{HTR_PLOT_SCRIPT};
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) candidates.push_back((self.parent_path() / "plot_evaluation").string());
+  for (const auto& script : candidates) {
+    if (std::filesystem::exists(script)) return std::system(("'" + script + "' '" + json_path + "'").c_str());
+  }
+  std::cerr << "evaluate_sequence: plot_evaluation not found; no plots drawn\n";
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Arguments args(
+      "evaluate_sequence",
+      {{"kitti", ""}, {"strecha", ""}, {"bag", ""}, {"repeat-bag", ""}, {"out", ""},
+       {"mode", "fast_hd"}, {"level", "gravity"}, {"scale", "1.0"},
+       {"keyframes", "policy"}, {"keyframe-distance", "2.0"}, {"keyframe-angle", "0.35"}, {"stride", "4"},
+       {"teach-frames", ""}, {"repeat-frames", ""}, {"teach-range", ""}, {"repeat-range", ""},
+       {"teach-time", ""}, {"repeat-time", ""},
+       {"feature", "sift"}, {"max-features", "2000"}, {"first-plane-distance", "0"},
+       {"teach-odometry", "truth"}, {"scale-error", "0.02"}, {"heading-bias", "0.02"},
+       {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
+       {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
+       {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"}},
+      "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
+      "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
+      "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
+      "  [--teach-frames I,J,..] [--repeat-frames I,J,..] [--teach-range A:B] [--repeat-range A:B] (indices)\n"
+      "  [--teach-time A:B] [--repeat-time A:B] (bag: seconds from its first image)\n"
+      "  [--feature sift|orb|akaze|surf] [--max-features N] [--first-plane-distance M (0: planes from odometry)]\n"
+      "  [--teach-odometry truth|recorded] [--scale-error E] [--heading-bias RAD/M] [--distance-noise M/sqrt(M)]\n"
+      "  [--heading-noise RAD/sqrt(M)] [--seed S] (odometry synthesized where the data has none)\n"
+      "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
+      "  [--plots 0|1]");
+  args.parse(argc, argv);
+  const std::string out = args.text("out");
+  if (out.empty()) args.fail("--out DIR is required");
+  const int sources = !args.text("kitti").empty() + !args.text("strecha").empty() + !args.text("bag").empty();
+  if (sources != 1) args.fail("exactly one of --kitti, --strecha, --bag is required");
+  if (!args.text("repeat-bag").empty() && args.text("bag").empty()) args.fail("--repeat-bag needs --bag");
+
+  eval::SequenceEvaluationOptions options;
+  try {
+    options.repeat.localization.mode = repeatModeFromString(args.text("mode"));
+    options.level = eval::levelSourceFromString(args.text("level"));
+    options.teach.features.type = featureTypeFromString(args.text("feature"));
+  } catch (const std::invalid_argument& e) {
+    args.fail(e.what());
+  }
+  options.image_scale = args.number("scale");
+  options.teach.features.max_features = args.integer("max-features");
+  options.repeat.localization.max_features = args.integer("max-features");
+  options.teach.first_plane_distance = args.number("first-plane-distance");
+  options.teach.planes_from_odometry = !(options.teach.first_plane_distance > 0.0);
+  options.teach.keyframes.distance = args.number("keyframe-distance");
+  options.teach.keyframes.angle = args.number("keyframe-angle");
+  options.teach.route_directory = out + "/route";
+  options.teach.overwrite = true;
+  const std::string teach_odometry = args.text("teach-odometry");
+  if (teach_odometry != "truth" && teach_odometry != "recorded") {
+    args.fail("--teach-odometry must be truth or recorded, got '" + teach_odometry + "'");
+  }
+  options.teach_on_ground_truth = teach_odometry == "truth";
+  options.synthesized_odometry.scale_error = args.number("scale-error");
+  options.synthesized_odometry.heading_bias_per_metre = args.number("heading-bias");
+  options.synthesized_odometry.distance_noise = args.number("distance-noise");
+  options.synthesized_odometry.heading_noise = args.number("heading-noise");
+  options.seed = static_cast<std::uint64_t>(args.integer("seed"));
+  try {
+    options.validate();
+  } catch (const std::invalid_argument& e) {
+    args.fail(e.what());
+  }
+
+  // The recordings.
+  std::optional<eval::RecordedSequence> teach, repeat;
+  auto take = [&](Expected<eval::RecordedSequence> read) {
+    if (!read) args.fail(read.status().message());
+    return std::move(*read);
+  };
+  if (!args.text("kitti").empty()) teach = take(eval::readKittiSequence(args.text("kitti")));
+  if (!args.text("strecha").empty()) teach = take(eval::readStrechaSequence(args.text("strecha")));
+  if (!args.text("bag").empty()) {
+#ifdef HTR_WITH_ROSBAG
+    eval::BagTopics topics;
+    topics.image = args.text("image-topic");
+    topics.camera_info = args.text("camera-info-topic");
+    topics.odometry = args.text("odom-topic");
+    topics.ground_truth = args.text("truth-topic");
+    topics.base_frame = args.text("base-frame");
+    teach = take(eval::readBagSequence(args.text("bag"), topics));
+    if (!args.text("repeat-bag").empty()) repeat = take(eval::readBagSequence(args.text("repeat-bag"), topics));
+#else
+    args.fail("this build has no rosbag support");
+#endif
+  }
+  const eval::RecordedSequence& teach_sequence = *teach;
+  const eval::RecordedSequence& repeat_sequence = repeat ? *repeat : *teach;
+  const bool one_recording = !repeat;
+  const bool by_time = !args.text("bag").empty();
+
+  // Frames.
+  eval::SequenceSelection selection;
+  const int teach_size = static_cast<int>(teach_sequence.stamps.size());
+  std::vector<int> teach_candidates = framesIn(teach_sequence, rangeOf(args, by_time ? "teach-time" : "teach-range"), !by_time);
+  const std::string keyframes = args.text("keyframes");
+  if (keyframes == "policy") {
+    selection.teach_frames = teach_candidates;
+  } else if (keyframes == "stride") {
+    const int stride = args.integer("stride");
+    if (stride < 1) args.fail("--stride must be >= 1");
+    for (std::size_t i = 0; i < teach_candidates.size(); i += static_cast<std::size_t>(stride)) {
+      selection.teach_frames.push_back(teach_candidates[i]);
+    }
+    options.teach_every_offered_frame = true;
+  } else if (keyframes == "list") {
+    selection.teach_frames = args.indices("teach-frames", teach_size, {});
+    if (selection.teach_frames.empty()) args.fail("--keyframes list needs --teach-frames");
+    options.teach_every_offered_frame = true;
+  } else {
+    args.fail("--keyframes must be policy, stride or list, got '" + keyframes + "'");
+  }
+  // With one recording, the frames taught are not repeated (with the policy, the teach session
+  // decides which they are).
+  const int repeat_size = static_cast<int>(repeat_sequence.stamps.size());
+  selection.repeat_frames =
+      args.text("repeat-frames").empty()
+          ? framesIn(repeat_sequence, rangeOf(args, by_time ? "repeat-time" : "repeat-range"), !by_time)
+          : args.indices("repeat-frames", repeat_size, {});
+  selection.skip_taught_frames = one_recording;
+
+  std::error_code created;
+  std::filesystem::create_directories(out, created);
+  if (created) args.fail("cannot create '" + out + "': " + created.message());
+  auto evaluation = eval::evaluateSequence(teach_sequence, repeat_sequence, selection, options);
+  if (!evaluation) args.fail(evaluation.status().toString());
+  nlohmann::json document = eval::toJson(*evaluation);
+  document["source"] = {{"teach", teach_sequence.description}, {"repeat", repeat_sequence.description},
+                        {"camera_mount", teach_sequence.mount_source}};
+  document["setup"] = {{"mode", args.text("mode")}, {"level", args.text("level")}, {"scale", options.image_scale},
+                       {"keyframes", keyframes}, {"keyframe_distance_m", options.teach.keyframes.distance},
+                       {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
+                       {"planes", options.teach.planes_from_odometry ? "from odometry" : "first plane distance"},
+                       {"command", [&] {
+                          std::string command;
+                          for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
+                          return command;
+                        }()}};
+  const std::string json_path = out + "/sequence.json";
+  {
+    std::ofstream file(json_path);
+    file << document.dump(1) << "\n";
+    if (!file) args.fail("cannot write '" + json_path + "'");
+  }
+  const auto& s = document["summary"];
+  std::cout << std::fixed << std::setprecision(3) << "evaluate_sequence: " << s["localized"] << " of "
+            << s["frames"] << " frames localized; " << evaluation->odometry_note << "\n";
+  for (const auto& segment : document["segments"]) {
+    std::cout << "  " << segment["name"].get<std::string>() << " (frames " << segment["first_frame"] << "-"
+              << segment["last_frame"] << "): " << segment["localized"] << "/" << segment["frames"]
+              << " localized, median " << segment["position_error_median_m"] << " m, p95 "
+              << segment["position_error_p95_m"] << " m, heading median " << segment["heading_error_median_deg"]
+              << " deg, NEES mean " << segment["nees_mean"] << "\n";
+  }
+  std::cout << "  failures: " << s["failures"].dump() << "; time per frame median " << s["time_per_frame_median_ms"]
+            << " ms\nwrote " << json_path << "\n";
+  if (args.integer("plots") != 0) drawPlots(json_path);
+  return 0;
+}

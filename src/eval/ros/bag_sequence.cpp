@@ -1,0 +1,196 @@
+#include "homography_teach_repeat/eval/bag_sequence.h"
+
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <set>
+
+#include "homography_teach_repeat/ros/conversions.h"
+
+namespace homography_teach_repeat {
+namespace eval {
+namespace {
+
+Status invalid(const std::string& message) { return Status(StatusCode::kInvalidInput, message); }
+
+// The topics of `type` in the bag, for a message naming what is there.
+std::string topicsOfType(const rosbag::Bag& bag, const std::string& type) {
+  rosbag::View view(bag);
+  std::set<std::string> topics;
+  for (const auto* connection : view.getConnections()) {
+    if (connection->datatype == type) topics.insert(connection->topic);
+  }
+  if (topics.empty()) return "the bag has no " + type + " topic";
+  std::string list;
+  for (const auto& t : topics) list += (list.empty() ? "" : ", ") + t;
+  return "the bag's " + type + " topics: " + list;
+}
+
+bool hasTopic(const rosbag::Bag& bag, const std::string& topic, const std::string& type) {
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  for (const auto* connection : view.getConnections()) {
+    if (connection->datatype == type) return true;
+  }
+  return false;
+}
+
+Expected<std::vector<StampedPose2D>> readOdometry(const rosbag::Bag& bag, const std::string& topic) {
+  std::vector<StampedPose2D> samples;
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  for (const auto& message : view) {
+    const auto odometry = message.instantiate<nav_msgs::Odometry>();
+    if (!odometry) continue;
+    const auto pose = ros_conversions::toPose2D(odometry->pose.pose);
+    if (!pose) return invalid(topic + " at " + std::to_string(odometry->header.stamp.toSec()) + ": " + pose.status().message());
+    const double stamp = odometry->header.stamp.toSec();
+    if (!samples.empty() && !(stamp > samples.back().stamp)) continue;  // duplicates / out of order
+    samples.push_back({stamp, *pose});
+  }
+  return samples;
+}
+
+}  // namespace
+
+Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTopics& topics) {
+  auto bag = std::make_shared<rosbag::Bag>();
+  try {
+    bag->open(path, rosbag::bagmode::Read);
+  } catch (const std::exception& e) {
+    return invalid("cannot open bag '" + path + "': " + e.what());
+  }
+  const std::string image_type = "sensor_msgs/Image";
+  if (!hasTopic(*bag, topics.image, image_type)) {
+    return invalid("bag '" + path + "' has no image topic '" + topics.image + "' (" + topicsOfType(*bag, image_type) + ")");
+  }
+  std::string info_topic = topics.camera_info;
+  if (info_topic.empty()) info_topic = topics.image.substr(0, topics.image.rfind('/')) + "/camera_info";
+  const std::string info_type = "sensor_msgs/CameraInfo";
+  if (!hasTopic(*bag, info_topic, info_type)) {
+    return invalid("bag '" + path + "' has no camera_info topic '" + info_topic + "' (" + topicsOfType(*bag, info_type) +
+                   "); the camera calibration is needed");
+  }
+  const std::string odometry_type = "nav_msgs/Odometry";
+  if (!hasTopic(*bag, topics.odometry, odometry_type)) {
+    return invalid("bag '" + path + "' has no odometry topic '" + topics.odometry + "' (" +
+                   topicsOfType(*bag, odometry_type) + ")");
+  }
+  if (!topics.ground_truth.empty() && !hasTopic(*bag, topics.ground_truth, odometry_type)) {
+    return invalid("bag '" + path + "' has no ground-truth topic '" + topics.ground_truth + "' (" +
+                   topicsOfType(*bag, odometry_type) + ")");
+  }
+
+  RecordedSequence sequence;
+  // Camera: the first camera_info.
+  std::optional<CameraCalibration> calibration;
+  {
+    rosbag::View view(*bag, rosbag::TopicQuery(info_topic));
+    for (const auto& message : view) {
+      const auto info = message.instantiate<sensor_msgs::CameraInfo>();
+      if (!info) continue;
+      const auto camera = ros_conversions::toPinholeCamera(*info);
+      if (!camera) return invalid(info_topic + ": " + camera.status().message());
+      calibration = ros_conversions::toCalibration(*info);
+      break;
+    }
+  }
+  if (!calibration) return invalid("bag '" + path + "': no message on '" + info_topic + "'");
+
+  // Images: stamps and bag times (to find each again).
+  std::vector<ros::Time> bag_times;
+  std::string camera_frame;
+  {
+    rosbag::View view(*bag, rosbag::TopicQuery(topics.image));
+    for (const auto& message : view) {
+      const auto image = message.instantiate<sensor_msgs::Image>();
+      if (!image) continue;
+      const double stamp = image->header.stamp.toSec();
+      if (!sequence.stamps.empty() && !(stamp > sequence.stamps.back())) continue;
+      sequence.stamps.push_back(stamp);
+      bag_times.push_back(message.getTime());
+      if (camera_frame.empty()) camera_frame = image->header.frame_id;
+    }
+  }
+  if (sequence.stamps.size() < 2) return invalid("bag '" + path + "': fewer than 2 images on '" + topics.image + "'");
+
+  auto odometry = readOdometry(*bag, topics.odometry);
+  if (!odometry) return odometry.status();
+  if (odometry->empty()) return invalid("bag '" + path + "': no message on the odometry topic '" + topics.odometry + "'");
+  sequence.odometry = std::move(*odometry);
+  if (!topics.ground_truth.empty()) {
+    auto truth = readOdometry(*bag, topics.ground_truth);
+    if (!truth) return truth.status();
+    if (truth->empty()) return invalid("bag '" + path + "': no message on the ground-truth topic '" + topics.ground_truth + "'");
+    sequence.ground_truth = std::move(*truth);
+  }
+
+  // The camera mount from the bag's tf.
+  tf2::BufferCore tf(ros::Duration(std::max(1.0, sequence.stamps.back() - sequence.stamps.front() + 10.0)));
+  {
+    rosbag::View view(*bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static"}));
+    for (const auto& message : view) {
+      const auto transforms = message.instantiate<tf2_msgs::TFMessage>();
+      if (!transforms) continue;
+      const bool is_static = message.getTopic() == "/tf_static";
+      for (const auto& t : transforms->transforms) tf.setTransform(t, "bag", is_static);
+    }
+  }
+  Eigen::Isometry3d base_T_optical;
+  try {
+    base_T_optical = ros_conversions::toIsometry(
+        tf.lookupTransform(topics.base_frame, camera_frame, ros::Time(0)).transform);
+  } catch (const tf2::TransformException& e) {
+    return invalid("bag '" + path + "': no tf " + topics.base_frame + " -> " + camera_frame +
+                   " (the camera mount; record /tf_static): " + e.what());
+  }
+  try {
+    // Any tilt up to 30 deg: it is removed by the level rotation below.
+    const CameraMount mount = CameraMount::fromExtrinsic(base_T_optical, 0.52);
+    sequence.camera_mount = mount.forwardFrame();
+  } catch (const std::invalid_argument& e) {
+    return invalid(std::string("camera mount: ") + e.what());
+  }
+  // Level camera axes in base_link: x = −y_base, y = −z_base, z = x_base, turned by the mount yaw.
+  Eigen::Matrix3d level_in_base;
+  level_in_base << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  level_in_base = Eigen::AngleAxisd(sequence.camera_mount.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * level_in_base;
+  sequence.mount_camera_to_level = level_in_base.transpose() * base_T_optical.linear();
+  const double tilt_deg = Eigen::AngleAxisd(sequence.mount_camera_to_level).angle() * 180.0 / M_PI;
+  sequence.mount_source = "tf " + topics.base_frame + " -> " + camera_frame + " (tilt " + std::to_string(tilt_deg) + " deg)";
+  sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + topics.image;
+
+  const std::string image_topic = topics.image;
+  const CameraCalibration camera = *calibration;
+  const std::vector<double> stamps = sequence.stamps;
+  sequence.load_image = [bag, image_topic, camera, bag_times, stamps](int index) -> Expected<SequenceImage> {
+    const auto i = static_cast<std::size_t>(index);
+    rosbag::View view(*bag, rosbag::TopicQuery(image_topic), bag_times[i], bag_times[i]);
+    for (const auto& message : view) {
+      const auto image = message.instantiate<sensor_msgs::Image>();
+      if (!image || std::abs(image->header.stamp.toSec() - stamps[i]) > 1e-9) continue;
+      auto converted = ros_conversions::toCvImage(image);
+      if (!converted) return invalid(image_topic + " image " + std::to_string(index) + ": " + converted.status().message());
+      if (converted->cols != camera.width || converted->rows != camera.height) {
+        return invalid(image_topic + " image " + std::to_string(index) + " is " + std::to_string(converted->cols) + "x" +
+                       std::to_string(converted->rows) + ", camera_info says " + std::to_string(camera.width) + "x" +
+                       std::to_string(camera.height));
+      }
+      return SequenceImage{converted->clone(), camera, std::nullopt};
+    }
+    return invalid(image_topic + ": image " + std::to_string(index) + " not found again in the bag");
+  };
+  return sequence;
+}
+
+}  // namespace eval
+}  // namespace homography_teach_repeat
