@@ -318,7 +318,11 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
 
   // Repeat.
   auto pipeline = RepeatPipeline::create(route, options.repeat);
-  if (!pipeline) return pipeline.status();
+  if (!pipeline) {
+    std::string why = pipeline.status().message();
+    for (const auto& message : evaluation.planes.messages) why += "; teach: " + message;
+    return Status(pipeline.status().code(), why);
+  }
   std::size_t next_odometry = 0;
   std::vector<Pose2D> truth_path;
   std::vector<double> distance;

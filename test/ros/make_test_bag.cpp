@@ -1,11 +1,15 @@
 // Records a short synthetic repeat run to a bag: the camera (images of the synthetic wall of the
 // core tests and camera_info), wheel odometry and the ground truth, along a path 6 cm beside the
 // taught one (test/support/synthetic_route.h). The rostest repeat_node_bag plays it back through
-// repeat_node with `rosbag play`.
+// repeat_node with `rosbag play`. With --tf, the camera mount (base_link -> camera_optical_frame,
+// the camera at the base, level) goes to /tf_static too, and --frames N records N frames
+// (evaluate_sequence's end-to-end test teaches and repeats from it).
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <iostream>
 #include <stdexcept>
 #include <string>
@@ -31,17 +35,43 @@ nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, c
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::cerr << "usage: make_test_bag FILE.bag\n";
+  bool with_tf = false;
+  int frames = 10;
+  std::string path;
+  for (int i = 1; i < argc; ++i) {
+    const std::string argument = argv[i];
+    if (argument == "--tf") {
+      with_tf = true;
+    } else if (argument == "--frames" && i + 1 < argc) {
+      frames = std::atoi(argv[++i]);
+    } else {
+      path = argument;
+    }
+  }
+  if (path.empty() || frames < 2) {
+    std::cerr << "usage: make_test_bag FILE.bag [--tf] [--frames N >= 2]\n";
     return 2;
   }
   try {
     ros::Time::init();
     const test_support::SyntheticWall wall;
-    rosbag::Bag bag(argv[1], rosbag::bagmode::Write);
-    const int frames = 10;
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    if (with_tf) {
+      // The optical frame (x right, y down, z forward) at base_link: x_opt = -y, y_opt = -z, z_opt = x.
+      geometry_msgs::TransformStamped mount;
+      mount.header.stamp = ros::Time(1000.0);
+      mount.header.frame_id = "base_link";
+      mount.child_frame_id = "camera_optical_frame";
+      mount.transform.rotation.x = -0.5;
+      mount.transform.rotation.y = 0.5;
+      mount.transform.rotation.z = -0.5;
+      mount.transform.rotation.w = 0.5;
+      tf2_msgs::TFMessage message;
+      message.transforms.push_back(mount);
+      bag.write("/tf_static", mount.header.stamp, message);
+    }
     for (int i = 0; i < frames; ++i) {
-      const double s = 0.05 + 0.11 * i;  // metres along the taught path
+      const double s = 0.05 + 1.1 / frames * i;  // metres along the taught path
       const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.03);
       const Pose2D truth = cameraAxesToRep103(camera_pose);
       const ros::Time stamp(1000.0 + 0.5 * i);  // 2 Hz
@@ -61,7 +91,7 @@ int main(int argc, char** argv) {
       bag.write("camera/camera_info", stamp, info);
     }
     bag.close();
-    std::cout << "bag written to " << argv[1] << " (" << frames << " frames)\n";
+    std::cout << "bag written to " << path << " (" << frames << " frames)\n";
   } catch (const std::exception& e) {
     std::cerr << "make_test_bag: " << e.what() << "\n";
     return 1;

@@ -37,12 +37,17 @@ std::string topicsOfType(const rosbag::Bag& bag, const std::string& type) {
   return "the bag's " + type + " topics: " + list;
 }
 
-bool hasTopic(const rosbag::Bag& bag, const std::string& topic, const std::string& type) {
-  rosbag::View view(bag, rosbag::TopicQuery(topic));
-  for (const auto* connection : view.getConnections()) {
-    if (connection->datatype == type) return true;
+// `topic` as the bag names it: rosbag record writes absolute names, bags written by programs may
+// hold relative ones; "/odom" and "odom" are the same topic to a user. Empty: not in the bag.
+std::string resolveTopic(const rosbag::Bag& bag, const std::string& topic, const std::string& type) {
+  const std::string other = topic.rfind('/', 0) == 0 ? topic.substr(1) : "/" + topic;
+  for (const std::string& name : {topic, other}) {
+    rosbag::View view(bag, rosbag::TopicQuery(name));
+    for (const auto* connection : view.getConnections()) {
+      if (connection->datatype == type) return name;
+    }
   }
-  return false;
+  return "";
 }
 
 Expected<std::vector<StampedPose2D>> readOdometry(const rosbag::Bag& bag, const std::string& topic) {
@@ -70,24 +75,31 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
     return invalid("cannot open bag '" + path + "': " + e.what());
   }
   const std::string image_type = "sensor_msgs/Image";
-  if (!hasTopic(*bag, topics.image, image_type)) {
+  const std::string image_topic = resolveTopic(*bag, topics.image, image_type);
+  if (image_topic.empty()) {
     return invalid("bag '" + path + "' has no image topic '" + topics.image + "' (" + topicsOfType(*bag, image_type) + ")");
   }
-  std::string info_topic = topics.camera_info;
-  if (info_topic.empty()) info_topic = topics.image.substr(0, topics.image.rfind('/')) + "/camera_info";
+  std::string info_request = topics.camera_info;
+  if (info_request.empty()) info_request = topics.image.substr(0, topics.image.rfind('/') + 1) + "camera_info";
   const std::string info_type = "sensor_msgs/CameraInfo";
-  if (!hasTopic(*bag, info_topic, info_type)) {
-    return invalid("bag '" + path + "' has no camera_info topic '" + info_topic + "' (" + topicsOfType(*bag, info_type) +
-                   "); the camera calibration is needed");
+  const std::string info_topic = resolveTopic(*bag, info_request, info_type);
+  if (info_topic.empty()) {
+    return invalid("bag '" + path + "' has no camera_info topic '" + info_request + "' (" +
+                   topicsOfType(*bag, info_type) + "); the camera calibration is needed");
   }
   const std::string odometry_type = "nav_msgs/Odometry";
-  if (!hasTopic(*bag, topics.odometry, odometry_type)) {
+  const std::string odometry_topic = resolveTopic(*bag, topics.odometry, odometry_type);
+  if (odometry_topic.empty()) {
     return invalid("bag '" + path + "' has no odometry topic '" + topics.odometry + "' (" +
                    topicsOfType(*bag, odometry_type) + ")");
   }
-  if (!topics.ground_truth.empty() && !hasTopic(*bag, topics.ground_truth, odometry_type)) {
-    return invalid("bag '" + path + "' has no ground-truth topic '" + topics.ground_truth + "' (" +
-                   topicsOfType(*bag, odometry_type) + ")");
+  std::string truth_topic;
+  if (!topics.ground_truth.empty()) {
+    truth_topic = resolveTopic(*bag, topics.ground_truth, odometry_type);
+    if (truth_topic.empty()) {
+      return invalid("bag '" + path + "' has no ground-truth topic '" + topics.ground_truth + "' (" +
+                     topicsOfType(*bag, odometry_type) + ")");
+    }
   }
 
   RecordedSequence sequence;
@@ -110,7 +122,7 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   std::vector<ros::Time> bag_times;
   std::string camera_frame;
   {
-    rosbag::View view(*bag, rosbag::TopicQuery(topics.image));
+    rosbag::View view(*bag, rosbag::TopicQuery(image_topic));
     for (const auto& message : view) {
       const auto image = message.instantiate<sensor_msgs::Image>();
       if (!image) continue;
@@ -121,14 +133,14 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
       if (camera_frame.empty()) camera_frame = image->header.frame_id;
     }
   }
-  if (sequence.stamps.size() < 2) return invalid("bag '" + path + "': fewer than 2 images on '" + topics.image + "'");
+  if (sequence.stamps.size() < 2) return invalid("bag '" + path + "': fewer than 2 images on '" + image_topic + "'");
 
-  auto odometry = readOdometry(*bag, topics.odometry);
+  auto odometry = readOdometry(*bag, odometry_topic);
   if (!odometry) return odometry.status();
   if (odometry->empty()) return invalid("bag '" + path + "': no message on the odometry topic '" + topics.odometry + "'");
   sequence.odometry = std::move(*odometry);
-  if (!topics.ground_truth.empty()) {
-    auto truth = readOdometry(*bag, topics.ground_truth);
+  if (!truth_topic.empty()) {
+    auto truth = readOdometry(*bag, truth_topic);
     if (!truth) return truth.status();
     if (truth->empty()) return invalid("bag '" + path + "': no message on the ground-truth topic '" + topics.ground_truth + "'");
     sequence.ground_truth = std::move(*truth);
@@ -137,11 +149,11 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   // The camera mount from the bag's tf.
   tf2::BufferCore tf(ros::Duration(std::max(1.0, sequence.stamps.back() - sequence.stamps.front() + 10.0)));
   {
-    rosbag::View view(*bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static"}));
+    rosbag::View view(*bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static", "tf", "tf_static"}));
     for (const auto& message : view) {
       const auto transforms = message.instantiate<tf2_msgs::TFMessage>();
       if (!transforms) continue;
-      const bool is_static = message.getTopic() == "/tf_static";
+      const bool is_static = message.getTopic() == "/tf_static" || message.getTopic() == "tf_static";
       for (const auto& t : transforms->transforms) tf.setTransform(t, "bag", is_static);
     }
   }
@@ -167,9 +179,8 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   sequence.mount_camera_to_level = level_in_base.transpose() * base_T_optical.linear();
   const double tilt_deg = Eigen::AngleAxisd(sequence.mount_camera_to_level).angle() * 180.0 / M_PI;
   sequence.mount_source = "tf " + topics.base_frame + " -> " + camera_frame + " (tilt " + std::to_string(tilt_deg) + " deg)";
-  sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + topics.image;
+  sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + image_topic;
 
-  const std::string image_topic = topics.image;
   const CameraCalibration camera = *calibration;
   const std::vector<double> stamps = sequence.stamps;
   sequence.load_image = [bag, image_topic, camera, bag_times, stamps](int index) -> Expected<SequenceImage> {

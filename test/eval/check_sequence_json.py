@@ -1,0 +1,43 @@
+#!/usr/bin/python3
+"""ctest helper: checks evaluate_sequence's JSON against floors (and that its plots were drawn).
+
+  check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M] [--plots]
+Exit 1 naming the figure that misses its floor."""
+import argparse
+import json
+import os
+import sys
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("json")
+    parser.add_argument("--min-localized", type=float, default=0.0)
+    parser.add_argument("--max-median-position", type=float, default=float("inf"))
+    parser.add_argument("--plots", action="store_true")
+    args = parser.parse_args()
+    with open(args.json) as f:
+        doc = json.load(f)
+    summary = doc["summary"]
+    problems = []
+    if summary["fraction_localized"] < args.min_localized:
+        problems.append("fraction localized %.3f < %.3f" % (summary["fraction_localized"], args.min_localized))
+    median = summary["position_error_median_m"]
+    if median is None or median > args.max_median_position:
+        problems.append("median position error %s m > %.3f m" % (median, args.max_median_position))
+    if len(doc["frames"]) != summary["frames"] or not doc["keyframes"]:
+        problems.append("frames or keyframes missing from the JSON")
+    if args.plots:
+        stem = os.path.splitext(args.json)[0]
+        for suffix in ("_top.png", "_error.png", "_nees.png"):
+            if not os.path.getsize(stem + suffix) > 0:
+                problems.append("no plot " + stem + suffix)
+    print("%d/%d frames localized, median position error %s m, NEES mean %s" %
+          (summary["localized"], summary["frames"], median, summary["nees_mean"]))
+    for p in problems:
+        print("check_sequence_json: " + p, file=sys.stderr)
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,10 @@
+# ctest helper: runs COMMAND (a ;-list) and passes when it exits non-zero with a message (stderr)
+# matching the regular expression EXPECTED.
+execute_process(COMMAND ${COMMAND} RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(status EQUAL 0)
+  message(FATAL_ERROR "expected a failure, got exit code 0: ${out}")
+endif()
+if(NOT err MATCHES "${EXPECTED}")
+  message(FATAL_ERROR "the message does not name '${EXPECTED}': ${err}")
+endif()
+message(STATUS "refused as expected (exit code ${status}): ${err}")
