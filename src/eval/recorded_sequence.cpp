@@ -183,7 +183,7 @@ Expected<RecordedSequence> readKittiSequence(const std::string& directory, const
   for (int i = 0; i < count; ++i) {
     const auto& v = (*poses)[static_cast<std::size_t>(i)];
     Eigen::Matrix3d R;
-    for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) R(r, c) = v[static_cast<std::size_t>(4 * r + c)];
+    for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) R(r, c) = v[4 * static_cast<std::size_t>(r) + static_cast<std::size_t>(c)];
     if (std::abs(R.determinant() - 1.0) > 1e-3 || !(R.transpose() * R).isIdentity(1e-3)) {
       return invalid("ground truth '" + poses_path + "' line " + std::to_string(i + 1) + " is not a rotation");
     }

@@ -36,6 +36,7 @@ std::vector<StampedPose2D> synthesize(const std::vector<StampedPose2D>& truth, c
                                       std::uint64_t seed) {
   SynthesizedOdometry odometry(model, seed);
   std::vector<StampedPose2D> result;
+  result.reserve(truth.size());
   for (const auto& t : truth) result.push_back({t.stamp, odometry.add(t.pose)});
   return result;
 }
@@ -119,7 +120,7 @@ nlohmann::json summaryOf(const std::vector<const FrameOutcome*>& frames) {
   auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   return {{"frames", frames.size()},
           {"localized", localized},
-          {"fraction_localized", frames.empty() ? 0.0 : static_cast<double>(localized) / frames.size()},
+          {"fraction_localized", frames.empty() ? 0.0 : static_cast<double>(localized) / static_cast<double>(frames.size())},
           {"position_error_median_m", number(percentile(position, 0.5))},
           {"position_error_p95_m", number(percentile(position, 0.95))},
           {"heading_error_median_deg", number(percentile(heading, 0.5))},
@@ -127,7 +128,7 @@ nlohmann::json summaryOf(const std::vector<const FrameOutcome*>& frames) {
           {"nees_mean", number(nees_mean)},
           {"nees_median", number(percentile(nees, 0.5))},
           {"nees_fraction_beyond_95", nees.empty() ? nlohmann::json(nullptr)
-                                                   : nlohmann::json(static_cast<double>(beyond) / nees.size())},
+                                                   : nlohmann::json(static_cast<double>(beyond) / static_cast<double>(nees.size()))},
           {"failures", failures},
           {"time_per_frame_median_ms", number(percentile(times, 0.5))},
           {"time_per_frame_mean_ms",
