@@ -71,15 +71,17 @@ Expected<std::vector<HomographyDecomposition>> decomposeHomographyClassic(
 
 std::vector<HomographyDecomposition> filterByPositiveDepth(
     const std::vector<HomographyDecomposition>& solutions, const PinholeCamera& camera,
-    const std::vector<Eigen::Vector2d>& reference_pixels) {
+    const std::vector<Eigen::Vector2d>& reference_pixels, double min_fraction) {
   const Eigen::Matrix3d K_inverse = camera.Kinverse();
   std::vector<HomographyDecomposition> kept;
+  const auto required = static_cast<std::ptrdiff_t>(
+      std::ceil(std::clamp(min_fraction, 0.0, 1.0) * static_cast<double>(reference_pixels.size())));
   for (const auto& s : solutions) {
-    const bool visible =
-        std::all_of(reference_pixels.begin(), reference_pixels.end(), [&](const auto& p) {
+    const auto in_front =
+        std::count_if(reference_pixels.begin(), reference_pixels.end(), [&](const auto& p) {
           return s.normal.dot(K_inverse * p.homogeneous()) > 0.0;
         });
-    if (visible) kept.push_back(s);
+    if (in_front >= required) kept.push_back(s);
   }
   return kept;
 }

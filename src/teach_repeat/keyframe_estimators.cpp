@@ -121,6 +121,9 @@ class FastHdEstimator final : public PointEstimator {
   // cannot tell the keyframe's wall from a side wall. The plane normal can: with enough parallax
   // the classic decomposition's normals (positive depth) must include one near the keyframe
   // plane's normal (docs/math.md §1.8: the other solution is the spurious one).
+  // filterByPositiveDepth: the solutions with at least this fraction of the inliers in front.
+  static constexpr double kMinFractionInFront = 0.9;
+
   Status checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane, const PointMatches& matches,
                           const std::vector<int>& inliers) const {
     const auto solutions = decomposeHomographyClassic(H, context_.camera);
@@ -128,7 +131,7 @@ class FastHdEstimator final : public PointEstimator {
     std::vector<Eigen::Vector2d> pixels;
     pixels.reserve(inliers.size());
     for (const int i : inliers) pixels.push_back(matches[static_cast<std::size_t>(i)].reference);
-    const auto visible = filterByPositiveDepth(*solutions, context_.camera, pixels);
+    const auto visible = filterByPositiveDepth(*solutions, context_.camera, pixels, kMinFractionInFront);
     if (visible.empty()) return Status::ok();
     double parallax = 0.0, best_cos = -1.0;
     for (const auto& d : visible) {
