@@ -1,6 +1,7 @@
 #include "homography_teach_repeat/fast_hd/fast_hd.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -16,9 +17,55 @@ void PlanarPoseEstimatorOptions::validate() const {
     throw std::invalid_argument("pixel_sigma_px must be > 0, got " +
                                 std::to_string(pixel_sigma_px));
   }
+  if (!std::isfinite(plane_normal_sigma_rad) || plane_normal_sigma_rad < 0.0 || plane_normal_sigma_rad > 0.5) {
+    throw std::invalid_argument("plane_normal_sigma must be in [0, 0.5] rad, got " +
+                                std::to_string(plane_normal_sigma_rad));
+  }
+  if (!std::isfinite(plane_distance_sigma) || plane_distance_sigma < 0.0 || plane_distance_sigma > 0.5) {
+    throw std::invalid_argument("plane_distance_sigma must be in [0, 0.5] (a fraction of the distance), got " +
+                                std::to_string(plane_distance_sigma));
+  }
   if (refinement_max_iterations < 1) {
     throw std::invalid_argument("refinement_max_iterations must be >= 1");
   }
+}
+
+Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
+                                                     const ScenePlane& plane, double normal_sigma_rad,
+                                                     double distance_sigma) {
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  if (!(normal_sigma_rad > 0.0) && !(distance_sigma > 0.0)) return covariance;
+  // Two directions across the normal, and the distance: central differences of the closed form.
+  const Eigen::Vector3d n = plane.normal.normalized();
+  const Eigen::Vector3d helper = std::abs(n.y()) < 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d across1 = n.cross(helper).normalized();
+  const Eigen::Vector3d across2 = n.cross(across1);
+  constexpr double kStep = 1e-4;
+  auto poseWith = [&](const Eigen::Vector3d& normal, double distance) -> Expected<Eigen::Vector3d> {
+    ScenePlane perturbed = plane;
+    perturbed.normal = normal.normalized();
+    perturbed.distance = distance;
+    const auto solution = solveFastHd(H, camera, perturbed);
+    if (!solution) return solution.status();
+    return Eigen::Vector3d(solution->pose.x, solution->pose.z, solution->pose.theta);
+  };
+  Eigen::Matrix3d J;
+  const std::array<std::pair<Eigen::Vector3d, double>, 3> steps{
+      {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep * plane.distance}}};
+  for (int k = 0; k < 3; ++k) {
+    const auto plus = poseWith(n + steps[k].first, plane.distance + steps[k].second);
+    const auto minus = poseWith(n - steps[k].first, plane.distance - steps[k].second);
+    if (!plus) return plus.status();
+    if (!minus) return minus.status();
+    Eigen::Vector3d difference = *plus - *minus;
+    difference.z() = wrapToPi(difference.z());
+    J.col(k) = difference / (2.0 * kStep);  // per radian across the normal, per unit relative distance
+  }
+  const Eigen::Vector3d variances(normal_sigma_rad * normal_sigma_rad, normal_sigma_rad * normal_sigma_rad,
+                                  distance_sigma * distance_sigma);
+  covariance = J * variances.asDiagonal() * J.transpose();
+  if (!covariance.allFinite()) return Status(StatusCode::kNotFinite, "plane uncertainty covariance is not finite");
+  return covariance;
 }
 
 Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
@@ -32,12 +79,15 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   if (!solution) return solution.status();
   const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px);
   if (!covariance) return covariance.status();
+  const auto plane_covariance = planeUncertaintyCovariance(dlt->H_unscaled, camera, plane, options.plane_normal_sigma_rad,
+                                                           options.plane_distance_sigma);
+  if (!plane_covariance) return plane_covariance.status();
 
   PlanarPoseEstimate estimate;
   estimate.fast_hd_pose = solution->pose;
-  estimate.fast_hd_covariance = *covariance;
+  estimate.fast_hd_covariance = *covariance + *plane_covariance;
   estimate.pose = solution->pose;
-  estimate.covariance = *covariance;
+  estimate.covariance = estimate.fast_hd_covariance;
   estimate.H = dlt->H_unscaled / dlt->H_unscaled.norm();
   estimate.inliers.resize(matches.size());
   double sum = 0.0;
@@ -54,7 +104,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
         refinePlanarPose(solution->pose, {PlaneMatches{plane, matches}}, camera, refinement);
     if (!refined) return refined.status();
     estimate.pose = refined->pose;
-    estimate.covariance = refined->covariance;
+    estimate.covariance = refined->covariance + *plane_covariance;
     estimate.refined = true;
   }
   return estimate;

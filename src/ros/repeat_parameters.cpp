@@ -15,6 +15,8 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.max_features = readParameter(nh, "max_features", r.max_features);
     r.pose.pixel_sigma_px = readParameter(nh, "pixel_sigma", r.pose.pixel_sigma_px);
     r.pose.refine = readParameter(nh, "refine", r.pose.refine);
+    r.pose.plane_normal_sigma_rad = readParameter(nh, "plane_normal_sigma", r.pose.plane_normal_sigma_rad);
+    r.pose.plane_distance_sigma = readParameter(nh, "plane_distance_sigma", r.pose.plane_distance_sigma);
     r.min_inliers = readParameter(nh, "min_inliers", r.min_inliers);
     r.neighbour_search = readParameter(nh, "neighbour_search", r.neighbour_search);
     r.max_degraded_frames = readParameter(nh, "max_degraded_frames", r.max_degraded_frames);

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
 #include "support/geometry_fixtures.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/eval/synthetic_plane_scene.h"
@@ -85,5 +87,40 @@ TEST(PlanarPoseEstimator, OptionsValidation) {
   EXPECT_THROW(options.validate(), std::invalid_argument);
   options.pixel_sigma_px = 1.0;
   options.refinement_max_iterations = 0;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+}
+
+// The plane's uncertainty in the covariance (docs/math.md §3.6). The translation scales with the
+// plane distance, so a relative distance std σ adds exactly σ² t tᵀ to (Cx, Cz) and nothing to θ;
+// a normal std adds a positive semi-definite term; zero stds add nothing.
+TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), kTruth, kPlane);
+  const auto none = planeUncertaintyCovariance(H, mathCamera(), kPlane, 0.0, 0.0);
+  ASSERT_TRUE(none.isOk());
+  EXPECT_EQ(*none, Eigen::Matrix3d::Zero());
+  const auto distance = planeUncertaintyCovariance(H, mathCamera(), kPlane, 0.0, 0.03);
+  ASSERT_TRUE(distance.isOk());
+  const Eigen::Vector2d t(kTruth.x, kTruth.z);
+  const Eigen::Matrix2d expected = 0.03 * 0.03 * t * t.transpose();
+  EXPECT_NEAR((distance->topLeftCorner(2, 2) - expected).norm(), 0.0, 1e-8);
+  EXPECT_NEAR((*distance)(2, 2), 0.0, 1e-10);
+  const auto normal = planeUncertaintyCovariance(H, mathCamera(), kPlane, 0.02, 0.0);
+  ASSERT_TRUE(normal.isOk());
+  EXPECT_GT(normal->trace(), 0.0);
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(*normal).eigenvalues().minCoeff(), -1e-12);
+
+  PlanarPoseEstimatorOptions options;
+  const auto pixels_only = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  options.plane_normal_sigma_rad = 0.02;
+  options.plane_distance_sigma = 0.03;
+  const auto with_plane = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  ASSERT_TRUE(pixels_only.isOk());
+  ASSERT_TRUE(with_plane.isOk());
+  expectPoseNear(with_plane->pose, pixels_only->pose, 1e-12);  // the pose does not change
+  EXPECT_GT(with_plane->covariance.trace(), pixels_only->covariance.trace());
+  options.plane_distance_sigma = -0.1;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+  options.plane_distance_sigma = 0.03;
+  options.plane_normal_sigma_rad = std::nan("");
   EXPECT_THROW(options.validate(), std::invalid_argument);
 }

@@ -98,3 +98,32 @@ TEST(HomographyDecomposition, NonFiniteAndDegenerateInput) {
   EXPECT_EQ(decomposeHomographyPlanar(Eigen::Matrix3d::Zero(), mathCamera()).status().code(),
             StatusCode::kDegenerate);
 }
+
+// A few reference pixels behind the plane (noise near the vanishing point in forward motion): with
+// all of them required the true solution goes; with min_fraction 0.9 it stays, and at most one of
+// each (N, −N) pair passes.
+TEST(HomographyDecomposition, PositiveDepthByFractionKeepsTheTruthDespiteAFewStrayPixels) {
+  std::mt19937_64 rng(5);
+  const PlanarPose pose(0.1, 0.8, 0.05);
+  const ScenePlane plane = planeFromAngles(0.3, 0.2, 5.0);
+  const PointMatches matches = sampleVisiblePlaneMatches(mathCamera(), plane, pose, 40, &rng);
+  const auto all = decomposeHomographyClassic(planeInducedHomography(mathCamera(), pose, plane), mathCamera());
+  ASSERT_TRUE(all.isOk());
+  std::vector<Eigen::Vector2d> pixels = referencePixels(matches);
+  // Two pixels whose ray misses the plane (behind it: Nᵀ K⁻¹ p < 0), 5 % of 40.
+  // The ray (−k nx, −k ny, 1) has Nᵀr = −k (nx² + ny²) + nz < 0 for k beyond nz / (nx² + ny²).
+  const Eigen::Vector3d& n = plane.normal;
+  const double k = 2.0 * n.z() / (n.x() * n.x() + n.y() * n.y()) + 0.1;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Vector3d ray(-k * n.x() * (1.0 + 0.1 * i), -k * n.y(), 1.0);
+    pixels[static_cast<std::size_t>(i)] = (mathCamera().K() * ray).hnormalized();
+  }
+  const Eigen::Matrix3d K_inverse = mathCamera().Kinverse();
+  ASSERT_LT(plane.normal.dot(K_inverse * pixels[0].homogeneous()), 0.0);
+  EXPECT_LT(findTrue(filterByPositiveDepth(*all, mathCamera(), pixels), plane, pose), 0);
+  const auto kept = filterByPositiveDepth(*all, mathCamera(), pixels, 0.9);
+  EXPECT_GE(findTrue(kept, plane, pose), 0);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    for (std::size_t j = i + 1; j < kept.size(); ++j) EXPECT_GT((kept[i].normal + kept[j].normal).norm(), 1e-6);
+  }
+}

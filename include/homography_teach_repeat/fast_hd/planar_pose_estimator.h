@@ -22,6 +22,13 @@ struct PlanarPoseEstimatorOptions {
   double pixel_sigma_px = 0.5;  // std of every match coordinate, for both covariances
   bool refine = true;           // run the 3-DoF refinement after Fast-HD
   int refinement_max_iterations = 20;
+  // The keyframe plane is itself an estimate (docs/math.md §3.6): the std of its normal's direction
+  // [rad, each of the two directions across it] and of its distance [fraction of the distance].
+  // Their effect on the pose, J Σ_plane Jᵀ with J the Fast-HD pose's derivative with respect to
+  // the plane (central differences of the closed form), is added to both covariances; 0 and 0: the
+  // covariance of the pixel noise alone.
+  double plane_normal_sigma_rad = 0.0;
+  double plane_distance_sigma = 0.0;
 
   // Throws std::invalid_argument naming the field on an invalid value.
   void validate() const;
@@ -37,6 +44,12 @@ struct PlanarPoseEstimate {
   std::vector<int> inliers;                          // indices into the input matches
   double rms_transfer_error_px = 0.0;
 };
+
+// The pose covariance that the plane's uncertainty adds (see the options above) for the pose Fast-HD
+// gives from H and `plane`. Fails like solveFastHd.
+Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
+                                                     const ScenePlane& plane, double normal_sigma_rad,
+                                                     double distance_sigma);
 
 // Outlier-free input (all matches used): DLT -> Fast-HD -> covariance -> refinement.
 // Status: kTooFewPoints (< 4), kDegenerate (collinear points, floor/ceiling plane, κ = 0),

@@ -88,7 +88,8 @@ int main(int argc, char** argv) {
        {"teach-odometry", "truth"}, {"scale-error", "0.02"}, {"heading-bias", "0.02"},
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
-       {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"}},
+       {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -98,6 +99,7 @@ int main(int argc, char** argv) {
       "  [--teach-odometry truth|recorded] [--scale-error E] [--heading-bias RAD/M] [--distance-noise M/sqrt(M)]\n"
       "  [--heading-noise RAD/sqrt(M)] [--seed S] (odometry synthesized where the data has none)\n"
       "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
+      "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] (repeat covariance)\n"
       "  [--plots 0|1]");
   args.parse(argc, argv);
   const std::string out = args.text("out");
@@ -121,6 +123,9 @@ int main(int argc, char** argv) {
   options.teach.planes_from_odometry = !(options.teach.first_plane_distance > 0.0);
   options.teach.keyframes.distance = args.number("keyframe-distance");
   options.teach.keyframes.angle = args.number("keyframe-angle");
+  options.repeat.localization.pose.pixel_sigma_px = args.number("pixel-sigma");
+  options.repeat.localization.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
+  options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.teach.route_directory = out + "/route";
   options.teach.overwrite = true;
   const std::string teach_odometry = args.text("teach-odometry");
@@ -206,6 +211,9 @@ int main(int argc, char** argv) {
                         {"camera_mount", teach_sequence.mount_source}};
   document["setup"] = {{"mode", args.text("mode")}, {"level", args.text("level")}, {"scale", options.image_scale},
                        {"keyframes", keyframes}, {"keyframe_distance_m", options.teach.keyframes.distance},
+                       {"pixel_sigma_px", options.repeat.localization.pose.pixel_sigma_px},
+                       {"plane_normal_sigma_rad", options.repeat.localization.pose.plane_normal_sigma_rad},
+                       {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
                        {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
                        {"planes", options.teach.planes_from_odometry ? "from odometry" : "first plane distance"},
                        {"command", [&] {
