@@ -208,7 +208,7 @@ Expected<PreparedImage> prepareImage(const SequenceImage& frame, const std::opti
     out.camera.cx = (c.cx + 0.5) * scale - 0.5;  // pixel centres preserved
     out.camera.cy = (c.cy + 0.5) * scale - 0.5;
   } else {
-    out.image = grey.clone();
+    out.image = grey;  // shares the loaded frame's buffer: nothing writes to it
   }
   return out;
 }
@@ -397,7 +397,6 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
   for (std::size_t i = 0; i < evaluation.frames.size(); ++i) {
     evaluation.frames[i].segment = segments[i];
     evaluation.frames[i].distance = distance[i];
-    evaluation.truth_path.push_back(*evaluation.frames[i].truth);
   }
   return evaluation;
 }

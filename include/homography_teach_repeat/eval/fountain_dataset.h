@@ -63,9 +63,13 @@ class FountainSequence {
       views_[i].gt = readGroundTruthCamera(
           dir + "/gt_dense_cameras/" + fountainImageName(i) + ".camera", args);
     }
-    Eigen::Vector3d down = Eigen::Vector3d::Zero();
-    for (const auto& v : views_) down += v.gt.R.col(1);
-    down.normalize();
+    std::vector<Eigen::Matrix3d> rotations;
+    std::vector<Eigen::Vector3d> centres;
+    for (const auto& v : views_) {
+      rotations.push_back(v.gt.R);
+      centres.push_back(v.gt.C);
+    }
+    const LevelTrajectory level = levelTrajectory(rotations, centres);
     K_ = views_[0].gt.K;
     K_(0, 0) *= scale;
     K_(1, 1) *= scale;
@@ -84,8 +88,8 @@ class FountainSequence {
       if (image.empty()) args.fail("cannot read image '" + path + "'");
       cv::resize(image, v.image, cv::Size(calibration_.width, calibration_.height), 0, 0,
                  cv::INTER_AREA);
-      v.level = levelAxes(v.gt.R, down);
-      const Eigen::Matrix3d Q = v.level.transpose() * v.gt.R;  // camera -> level
+      v.level = levelAxes(v.gt.R, level.down);
+      const Eigen::Matrix3d& Q = level.camera_to_level[static_cast<std::size_t>(i)];  // camera -> level
       v.rectification = K_ * Q * K_.inverse();
       v.tilt_deg = Eigen::AngleAxisd(Q).angle() * 180.0 / M_PI;
     }

@@ -102,7 +102,6 @@ struct SequenceEvaluation {
   Route route;
   PlaneEstimationReport planes;
   std::string odometry_note;  // where the teach and repeat odometry came from
-  std::vector<Pose2D> truth_path;  // ground truth of every repeat frame (route frame), for plots
 };
 
 // Runs teach then repeat. kInvalidInput naming the problem: no frames, an index outside a
