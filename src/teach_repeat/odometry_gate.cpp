@@ -68,6 +68,19 @@ void OdometryGate::accept(const Anchor& anchor) {
   }
 }
 
+Status OdometryGate::agrees(const Pose2D& visual, const Pose2D& odometry) const {
+  if (!finitePose(visual) || !finitePose(odometry)) {
+    return Status(StatusCode::kInvalidInput, "odometry gate: non-finite visual or odometry pose");
+  }
+  if (accepted_.empty()) return Status::ok();
+  std::string disagreement;
+  if (excess(accepted_.back(), visual, odometry, &disagreement) <= 0.0 &&
+      excess(accepted_.front(), visual, odometry, &disagreement) <= 0.0) {
+    return Status::ok();
+  }
+  return Status(StatusCode::kNoConsensus, "visual pose refused: " + disagreement);
+}
+
 Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
   if (!finitePose(visual) || !finitePose(odometry)) {
     return Status(StatusCode::kInvalidInput, "odometry gate: non-finite visual or odometry pose");

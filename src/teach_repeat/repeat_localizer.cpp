@@ -13,6 +13,12 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+// The caller's verdict on an estimate: only poses are checked (a μ fix is the filter's to judge).
+Status vet(const RepeatLocalizer::PoseCheck& check, const RepeatEstimate& estimate) {
+  if (!check || !estimate.has_pose) return Status::ok();
+  return check(estimate);
+}
+
 }  // namespace
 
 bool isClosedRoute(const Route& route, double max_gap) {
@@ -46,7 +52,8 @@ bool RepeatLocalizer::isTurnKeyframe(int keyframe) const {
   return keyframe >= 0 && keyframe < keyframeCount() && keyframes_.at(keyframe).turn;
 }
 
-Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose) {
+Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose,
+                                                   const PoseCheck& check) {
   timing_ = LocalizeTiming();
   const auto extraction_start = std::chrono::steady_clock::now();
   if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
@@ -61,7 +68,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
     if (!converted) return converted.status();
     gray = std::move(*converted);
     if (tracker_.canTrack(selector_.tracked())) {
-      auto estimate = localizeByTracking(gray);
+      auto estimate = localizeByTracking(gray, check);
       if (estimate) return estimate;
       // Detect afresh (the time spent on tracking counts as extraction).
     }
@@ -71,12 +78,13 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
   if (!frame) return frame.status();
   timing_.extraction_ms = millisecondsSince(extraction_start);
   return localizeAgainstCandidates(*frame, gray, predicted_pose, options().neighbour_search,
-                                   options().max_degraded_frames);
+                                   options().max_degraded_frames, check);
 }
 
 Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameObservations& frame, const cv::Mat& gray,
                                                                     const std::optional<Pose2D>& predicted_pose,
-                                                                    int neighbour_search, int max_degraded_frames) {
+                                                                    int neighbour_search, int max_degraded_frames,
+                                                                    const PoseCheck& check) {
   const auto references_start = std::chrono::steady_clock::now();
   auto against = [&](const KeyframeReference& reference, int keyframe) {
     ++timing_.references_tried;
@@ -95,17 +103,29 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
                               " gives a heading fix here (turned in place, or facing more than " +
                               std::to_string(options().mu_max_reference_angle) + " rad away)");
   }
+  // The first estimate the check refused: returned when no other reference gives one it accepts
+  // (the caller decides about it, as without a check).
+  std::optional<RepeatEstimate> first_refused;
+  auto use = [&](RepeatEstimate estimate, int k) -> Expected<RepeatEstimate> {
+    keepAsTemporaryReference(frame, estimate, keyframes_.at(k).plane);
+    degraded_frames_ = 0;
+    rememberForTracking(estimate, gray, 0);
+    advanceTracking(estimate);
+    return estimate;
+  };
   for (const int k : candidates) {
     auto estimate = against(keyframes_.at(k), k);
     if (!estimate) {
       last_failure = Status(estimate.status().code(), "keyframe " + std::to_string(k) + ": " + estimate.status().message());
       continue;
     }
-    keepAsTemporaryReference(frame, *estimate, keyframes_.at(k).plane);
-    degraded_frames_ = 0;
-    rememberForTracking(*estimate, gray, 0);
-    advanceTracking(*estimate);
-    return estimate;
+    const Status verdict = vet(check, *estimate);
+    if (verdict.isOk()) return use(std::move(*estimate), k);
+    if (!first_refused) first_refused = std::move(*estimate);
+  }
+  if (first_refused) {
+    const int k = first_refused->keyframe;
+    return use(std::move(*first_refused), k);
   }
   const bool temporary_usable =
       temporary_ && estimator_->usable(*temporary_, temporary_keyframe_, predicted_pose);
@@ -152,7 +172,7 @@ void RepeatLocalizer::rememberForTracking(const RepeatEstimate& estimate, const 
   tracker_.remember(estimate.inlier_matches, estimate.keyframe, gray, frames_tracked);
 }
 
-Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray) {
+Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray, const PoseCheck& check) {
   const auto start = std::chrono::steady_clock::now();
   const auto followed = tracker_.track(gray);
   timing_.extraction_ms = millisecondsSince(start);
@@ -164,6 +184,8 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray
   timing_.references_ms = millisecondsSince(references_start);
   if (!estimate) return estimate;
   estimate->tracked = true;
+  const Status verdict = vet(check, *estimate);
+  if (!verdict.isOk()) return verdict;
   timing_.tracked = true;
   degraded_frames_ = 0;
   rememberForTracking(*estimate, gray, tracker_.framesTracked() + 1);
@@ -186,7 +208,7 @@ Expected<RepeatEstimate> RepeatLocalizer::initializeGlobally(const cv::Mat& imag
   for (int k = 0; k < keyframeCount(); ++k) {
     setTrackedKeyframe(k);
     // This keyframe alone: no neighbours, no temporary reference.
-    const auto estimate = localizeAgainstCandidates(*frame, *gray, std::nullopt, 0, 0);
+    const auto estimate = localizeAgainstCandidates(*frame, *gray, std::nullopt, 0, 0, {});
     if (estimate && estimate->inliers > best_inliers) {
       best_inliers = estimate->inliers;
       best_keyframe = k;

@@ -83,8 +83,16 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
                            std::to_string(taught.height())));
   }
   if (!image) return fail(image.status());
-  const auto estimate =
-      initialized_ ? localizer_.localize(*image, predictedMuPose(stamp)) : localizer_.initializeGlobally(*image);
+  // The odometry gate's verdict on each reference's pose, inside the localizer: a pose it would
+  // refuse from one keyframe lets the neighbour try (repeat_localizer.h). The pose returned is then
+  // gated for real (accepted, or refused and counted towards a switch of reference).
+  const RepeatLocalizer::PoseCheck would_pass = [&](const RepeatEstimate& candidate) {
+    if (!odometry_gate_) return Status::ok();
+    const auto odom = odometry_.poseNear(stamp, kOdometryLag);
+    return odom ? odometry_gate_->agrees(candidate.base_pose, *odom) : Status::ok();
+  };
+  const auto estimate = initialized_ ? localizer_.localize(*image, predictedMuPose(stamp), would_pass)
+                                     : localizer_.initializeGlobally(*image);
   result.timing = localizer_.lastTiming();
   if (!estimate) return fail(estimate.status());
   if (estimate->has_pose) {

@@ -111,3 +111,24 @@ TEST(OdometryGate, CatchesAPoseCreepingAway) {
   EXPECT_GT(first_refusal, 0);
   EXPECT_LE(first_refusal, 12);  // within about the window (1 m) of travel
 }
+
+// agrees(): the verdict check() would give on agreement, without accepting or counting: asking
+// about many refused poses never switches the reference, and the agreeing pose is not stored.
+TEST(OdometryGate, AgreesHasNoSideEffects) {
+  OdometryGateOptions options;
+  options.switch_after = 2;
+  OdometryGate gate(options);
+  EXPECT_TRUE(gate.agrees(Pose2D(9.0, 9.0, 0.0), odometryOf(Pose2D(0, 0, 0))).isOk());  // no reference yet
+  ASSERT_TRUE(gate.check(Pose2D(0, 0, 0), odometryOf(Pose2D(0, 0, 0))).isOk());
+  for (int k = 0; k < 5; ++k) {
+    const Status refused = gate.agrees(Pose2D(1.0, 0.5, 0.0), odometryOf(Pose2D(0.1, 0, 0)));
+    EXPECT_EQ(refused.code(), StatusCode::kNoConsensus) << k;
+    EXPECT_NE(refused.message().find("odometry"), std::string::npos) << refused.message();
+  }
+  EXPECT_EQ(gate.refusedInARow(), 0);
+  EXPECT_TRUE(gate.agrees(Pose2D(0.1, 0, 0), odometryOf(Pose2D(0.1, 0, 0))).isOk());
+  EXPECT_EQ(gate.agrees(Pose2D(NAN, 0, 0), odometryOf(Pose2D(0.1, 0, 0))).code(), StatusCode::kInvalidInput);
+  // check() on the same refused pose still refuses once, then (switch_after 2) switches.
+  EXPECT_FALSE(gate.check(Pose2D(1.0, 0.5, 0.0), odometryOf(Pose2D(0.1, 0, 0))).isOk());
+  EXPECT_EQ(gate.refusedInARow(), 1);
+}

@@ -350,3 +350,49 @@ TEST_F(RepeatLocalizerTest, TrackingOffDetectsEveryFrame) {
   bad.tracking_tolerance_px = 0.0;
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
+
+// The caller's check (the odometry gate) vets each reference's pose inside the localizer: a pose
+// refused from the tracked keyframe lets its neighbour try; a tracked frame whose pose is refused
+// is detected afresh; when every pose is refused, the failure names the check's reason.
+TEST_F(RepeatLocalizerTest, ARefusedPoseLetsTheNeighbourTry) {
+  RepeatOptions options;
+  options.max_degraded_frames = 0;  // no temporary reference: only keyframes
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  localizer->setTrackedKeyframe(1);
+  const PlanarPose camera_pose(0.085, 0.31, 0.047);
+  std::vector<int> asked;
+  const RepeatLocalizer::PoseCheck refuse_keyframe_1 = [&](const RepeatEstimate& estimate) {
+    asked.push_back(estimate.keyframe);
+    return estimate.keyframe == 1 ? Status(StatusCode::kNoConsensus, "refused by the test") : Status::ok();
+  };
+  const auto estimate = localizer->localize(wall_->imageAt(camera_pose), std::nullopt, refuse_keyframe_1);
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_NE(estimate->keyframe, 1);
+  ASSERT_GE(asked.size(), 2U);
+  EXPECT_EQ(asked.front(), 1);
+  const Pose2D truth = basePose(camera_pose);
+  EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.01);
+  EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.01);
+
+  // The next frame would be tracked against that keyframe; refusing it makes a detection.
+  const int used = estimate->keyframe;
+  const RepeatLocalizer::PoseCheck refuse_tracked = [&](const RepeatEstimate& candidate) {
+    return candidate.tracked || candidate.keyframe == used ? Status(StatusCode::kNoConsensus, "refused by the test")
+                                                            : Status::ok();
+  };
+  const auto next = localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.32, 0.047)), std::nullopt, refuse_tracked);
+  ASSERT_TRUE(next.isOk()) << next.status().toString();
+  EXPECT_FALSE(next->tracked);
+  EXPECT_NE(next->keyframe, used);
+
+  // Every pose refused: the first one (the tracked keyframe's) comes back, for the caller to judge.
+  const int tracked = localizer->trackedKeyframe();
+  const RepeatLocalizer::PoseCheck refuse_all = [](const RepeatEstimate& candidate) {
+    return candidate.tracked ? Status::ok() : Status(StatusCode::kNoConsensus, "refused by the test");
+  };
+  localizer->setTrackedKeyframe(tracked);  // forget the tracked points: detect
+  const auto first = localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.33, 0.047)), std::nullopt, refuse_all);
+  ASSERT_TRUE(first.isOk()) << first.status().toString();
+  EXPECT_EQ(first->keyframe, tracked);
+}

@@ -45,6 +45,10 @@ class OdometryGate {
   // accepted; kNoConsensus naming the disagreement when refused; kInvalidInput for non-finite
   // poses. The first pose is accepted as the reference.
   Status check(const Pose2D& visual, const Pose2D& odometry);
+  // Whether check() would accept the pose as agreeing with the reference, without changing the
+  // gate (no acceptance, no count towards a switch): for choosing among several references' poses
+  // of the same frame. ok, or kNoConsensus naming the disagreement; kInvalidInput as check().
+  Status agrees(const Pose2D& visual, const Pose2D& odometry) const;
   // Forget the reference (a new run, a relocalization ordered from outside).
   void reset();
   int refusedInARow() const { return candidates_; }

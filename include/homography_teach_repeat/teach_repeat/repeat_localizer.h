@@ -3,7 +3,9 @@
 // run, in which the keyframe poses are stored) with its covariance, or (mu) the heading fix.
 // It composes the keyframe store, the reference selection, the frame tracker and the mode's
 // estimator (keyframe_estimators.h):
-//  - reference keyframe: the tracked one, then its neighbours (k+1, k−1, k+2, ...) when it fails;
+//  - reference keyframe: the tracked one, then its neighbours (k+1, k−1, k+2, ...) when it fails
+//    or the caller's check (the odometry gate) would refuse its pose: a wrong pose from one
+//    keyframe (its plane a poor model of this view) must not hide a right one from the next;
 //    tracking moves on when the robot is closer to the next keyframe than to the current one;
 //  - lost tracking (every candidate fails): the last good current image becomes a temporary
 //    reference (paper 000's outdoor experiment) and estimates are flagged `degraded`; after
@@ -15,6 +17,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,6 +40,9 @@ bool isClosedRoute(const Route& route, double max_gap);
 
 class RepeatLocalizer {
  public:
+  // Accepts (ok) or refuses (the reason) a pose estimate before it is used or remembered.
+  using PoseCheck = std::function<Status(const RepeatEstimate&)>;
+
   // Loads every keyframe's features or lines. kInvalidInput naming the file for a corrupt
   // keyframe; kInvalidInput when fast_hd/classic mode meets a route without planes.
   static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
@@ -44,8 +50,12 @@ class RepeatLocalizer {
   // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the failure
   // of the last reference tried (never a pose). mu mode: `predicted_pose` (route frame, the μ
   // filter's) restricts the references to those facing the same way and guides the line
-  // matching. Ignored in the other modes and when not finite.
-  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose = std::nullopt);
+  // matching. Ignored in the other modes and when not finite. `check` (when given, without side
+  // effects) vets every estimate with a pose: one it refuses makes the next reference try (a
+  // tracked frame is then detected afresh); when no reference gives an accepted pose, the first
+  // refused one is returned, for the caller to decide about as without a check.
+  Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose = std::nullopt,
+                                    const PoseCheck& check = {});
 
   // Of the last localize() call (initializeGlobally: of its last localize()), failed ones too.
   const LocalizeTiming& lastTiming() const { return timing_; }
@@ -71,8 +81,8 @@ class RepeatLocalizer {
   // Against the candidates near the tracked keyframe, then the temporary reference.
   Expected<RepeatEstimate> localizeAgainstCandidates(const FrameObservations& frame, const cv::Mat& gray,
                                                      const std::optional<Pose2D>& predicted_pose, int neighbour_search,
-                                                     int max_degraded_frames);
-  Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray);
+                                                     int max_degraded_frames, const PoseCheck& check);
+  Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray, const PoseCheck& check);
   // The frame that just localized against a reference whose plane is `from_plane` becomes the
   // temporary reference (a pose estimate needs that plane seen from the frame).
   void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
