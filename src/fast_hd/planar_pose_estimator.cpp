@@ -25,6 +25,9 @@ void PlanarPoseEstimatorOptions::validate() const {
     throw std::invalid_argument("plane_distance_sigma must be in [0, 0.5] (a fraction of the distance), got " +
                                 std::to_string(plane_distance_sigma));
   }
+  if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0.0 || tilt_sigma_rad > 0.2) {
+    throw std::invalid_argument("tilt_sigma must be in [0, 0.2] rad, got " + std::to_string(tilt_sigma_rad));
+  }
   if (refinement_max_iterations < 1) {
     throw std::invalid_argument("refinement_max_iterations must be >= 1");
   }
@@ -100,11 +103,13 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
     PoseRefinementOptions refinement;
     refinement.sigma_px = options.pixel_sigma_px;
     refinement.max_iterations = options.refinement_max_iterations;
+    refinement.tilt_sigma_rad = options.tilt_sigma_rad;
     const auto refined =
         refinePlanarPose(solution->pose, {PlaneMatches{plane, matches}}, camera, refinement);
     if (!refined) return refined.status();
     estimate.pose = refined->pose;
     estimate.covariance = refined->covariance + *plane_covariance;
+    estimate.tilt = refined->tilt;
     estimate.refined = true;
   }
   return estimate;

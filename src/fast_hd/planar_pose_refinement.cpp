@@ -11,7 +11,11 @@ namespace homography_teach_repeat {
 namespace {
 
 using Matrix23d = Eigen::Matrix<double, 2, 3>;
-using Matrix44d = Eigen::Matrix4d;
+// Parameters: (Cx, Cz, θ12) and the nuisance (Cy, pitch, roll) of the current camera.
+constexpr int kParameters = 6;
+using Vector6d = Eigen::Matrix<double, kParameters, 1>;
+using Matrix6d = Eigen::Matrix<double, kParameters, kParameters>;
+using Matrix46d = Eigen::Matrix<double, 4, kParameters>;
 
 // dπ/dq for π(q) = (q1/q3, q2/q3).
 Matrix23d projectionJacobian(const Eigen::Vector3d& q) {
@@ -25,16 +29,40 @@ Matrix23d projectionJacobian(const Eigen::Vector3d& q) {
 struct ModelHomography {
   Eigen::Matrix3d H;
   Eigen::Matrix3d H_inverse;
-  std::array<Eigen::Matrix3d, 4> dH;  // (Cx, Cz, θ12, Cy)
+  std::array<Eigen::Matrix3d, kParameters> dH;  // (Cx, Cz, θ12, Cy, pitch, roll)
 };
 
-// The estimated state: the planar pose plus the camera's height offset Cy (a nuisance parameter,
-// fixed at 0 unless PoseRefinementOptions::estimate_height_offset).
+// The estimated state: the planar pose plus the nuisance parameters: the camera's height offset
+// Cy and the current camera's tilt (pitch about its x axis, roll about its z axis), each fixed at 0
+// unless estimated (PoseRefinementOptions).
 struct State {
   PlanarPose pose;
   double height = 0.0;
+  double pitch = 0.0;
+  double roll = 0.0;
   Eigen::Vector3d centre() const { return Eigen::Vector3d(pose.x, height, pose.z); }
 };
+
+Eigen::Matrix3d rotationX(double a) {
+  Eigen::Matrix3d r;
+  r << 1.0, 0.0, 0.0, 0.0, std::cos(a), -std::sin(a), 0.0, std::sin(a), std::cos(a);
+  return r;
+}
+Eigen::Matrix3d rotationZ(double a) {
+  Eigen::Matrix3d r;
+  r << std::cos(a), -std::sin(a), 0.0, std::sin(a), std::cos(a), 0.0, 0.0, 0.0, 1.0;
+  return r;
+}
+Eigen::Matrix3d rotationXDerivative(double a) {
+  Eigen::Matrix3d r;
+  r << 0.0, 0.0, 0.0, 0.0, -std::sin(a), -std::cos(a), 0.0, std::cos(a), -std::sin(a);
+  return r;
+}
+Eigen::Matrix3d rotationZDerivative(double a) {
+  Eigen::Matrix3d r;
+  r << -std::sin(a), -std::cos(a), 0.0, std::cos(a), -std::sin(a), 0.0, 0.0, 0.0, 0.0;
+  return r;
+}
 
 bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlane& plane,
                 ModelHomography* model) {
@@ -44,26 +72,31 @@ bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlan
   const Eigen::Matrix3d R21 = pose.rotation21();
   const Eigen::RowVector3d n_over_d = plane.normal.transpose() / plane.distance;
   const Eigen::Matrix3d plane_term = Eigen::Matrix3d::Identity() - state.centre() * n_over_d;
-  model->H = K * R21 * plane_term * K_inverse;
+  // The current camera's tilt T = Rx(pitch) Rz(roll) rotates its rays after the planar motion.
+  const Eigen::Matrix3d T = rotationX(state.pitch) * rotationZ(state.roll);
+  const Eigen::Matrix3d KT = K * T;
+  model->H = KT * R21 * plane_term * K_inverse;
   // det H ∝ det(I − C nᵀ/d) = 1 − nᵀC/d = (distance of camera 2 to the plane)/d.
   const double relative_distance = 1.0 - n_over_d.dot(state.centre());
   if (!(std::abs(relative_distance) > 1e-9)) return false;
   model->H_inverse = model->H.inverse();
-  model->dH[0] = -K * R21 * Eigen::Vector3d::UnitX() * n_over_d * K_inverse;
-  model->dH[1] = -K * R21 * Eigen::Vector3d::UnitZ() * n_over_d * K_inverse;
+  model->dH[0] = -KT * R21 * Eigen::Vector3d::UnitX() * n_over_d * K_inverse;
+  model->dH[1] = -KT * R21 * Eigen::Vector3d::UnitZ() * n_over_d * K_inverse;
   // R21 = Ry(θ21), θ21 = −θ12: dR21/dθ12 = −Ry'(θ21).
   const double theta21 = -pose.theta;
   Eigen::Matrix3d d_rotation;
   d_rotation << -std::sin(theta21), 0.0, -std::cos(theta21), 0.0, 0.0, 0.0, std::cos(theta21), 0.0,
       -std::sin(theta21);
-  model->dH[2] = -K * d_rotation * plane_term * K_inverse;
-  model->dH[3] = -K * R21 * Eigen::Vector3d::UnitY() * n_over_d * K_inverse;
+  model->dH[2] = -KT * d_rotation * plane_term * K_inverse;
+  model->dH[3] = -KT * R21 * Eigen::Vector3d::UnitY() * n_over_d * K_inverse;
+  model->dH[4] = K * rotationXDerivative(state.pitch) * rotationZ(state.roll) * R21 * plane_term * K_inverse;
+  model->dH[5] = K * rotationX(state.pitch) * rotationZDerivative(state.roll) * R21 * plane_term * K_inverse;
   return model->H.allFinite() && model->H_inverse.allFinite();
 }
 
 struct MatchLinearization {
   Eigen::Vector4d residual;
-  Matrix44d jacobian;                  // ∂r/∂(Cx, Cz, θ12, Cy)
+  Matrix46d jacobian;                  // ∂r/∂(Cx, Cz, θ12, Cy, pitch, roll)
   Eigen::Matrix4d measurement_jacobian;  // ∂r/∂(u, v, u', v')
 };
 
@@ -94,7 +127,7 @@ bool linearizeSampson(const ModelHomography& model, const PointMatch& match,
   out->measurement_jacobian.setZero();
   out->residual.head<2>() = W * algebraicResidual(H, p, match.current);
   // J = ∂r/∂p = W ∂ε/∂p; ε is linear in H, so ∂ε/∂p_k = ε(dH_k).
-  for (int k = 0; k < 4; ++k) {
+  for (int k = 0; k < kParameters; ++k) {
     out->jacobian.block<2, 1>(0, k) = W * algebraicResidual(model.dH[k], p, match.current);
   }
   out->measurement_jacobian.topRows<2>() = W * b;
@@ -111,7 +144,7 @@ bool linearize(const ModelHomography& model, const PointMatch& match, MatchLinea
   out->residual.tail<2>() = match.reference - q_back.hnormalized();
   const Matrix23d dpi = projectionJacobian(q);
   const Matrix23d dpi_back = projectionJacobian(q_back);
-  for (int k = 0; k < 4; ++k) {
+  for (int k = 0; k < kParameters; ++k) {
     out->jacobian.block<2, 1>(0, k) = -dpi * (model.dH[k] * p);
     // d(H⁻¹) = −H⁻¹ dH H⁻¹.
     out->jacobian.block<2, 1>(2, k) = dpi_back * (model.H_inverse * (model.dH[k] * q_back));
@@ -126,15 +159,22 @@ bool linearize(const ModelHomography& model, const PointMatch& match, MatchLinea
 
 // Accumulates JᵀJ, Jᵀr and the cost at a pose; false when the model is degenerate there.
 struct NormalEquations {
-  Eigen::Matrix4d JtJ = Eigen::Matrix4d::Zero();
-  Eigen::Vector4d Jtr = Eigen::Vector4d::Zero();
-  Eigen::Matrix4d measurement_information = Eigen::Matrix4d::Zero();  // Σ Jᵢᵀ Rᵢ Rᵢᵀ Jᵢ
+  Matrix6d JtJ = Matrix6d::Zero();
+  Vector6d Jtr = Vector6d::Zero();
+  Matrix6d measurement_information = Matrix6d::Zero();  // Σ Jᵢᵀ Rᵢ Rᵢᵀ Jᵢ
   double cost = 0.0;
+};
+
+// Which nuisance parameters are estimated, and the tilt's prior weight (σ_px / σ_tilt)².
+struct Nuisance {
+  bool height = false;
+  bool tilt = false;
+  double tilt_weight = 0.0;
 };
 
 bool accumulate(const PinholeCamera& camera, const State& state,
                 const std::vector<PlaneMatches>& planes, RefinementCost cost,
-                bool estimate_height, bool with_covariance, NormalEquations* eq) {
+                const Nuisance& nuisance, bool with_covariance, NormalEquations* eq) {
   *eq = NormalEquations();
   MatchLinearization lin;
   for (const auto& group : planes) {
@@ -144,18 +184,33 @@ bool accumulate(const PinholeCamera& camera, const State& state,
       const bool ok = cost == RefinementCost::kSampson ? linearizeSampson(model, match, &lin)
                                                        : linearize(model, match, &lin);
       if (!ok) return false;
-      if (!estimate_height) lin.jacobian.col(3).setZero();
+      if (!nuisance.height) lin.jacobian.col(3).setZero();
+      if (!nuisance.tilt) lin.jacobian.rightCols<2>().setZero();
       eq->JtJ.noalias() += lin.jacobian.transpose() * lin.jacobian;
       eq->Jtr.noalias() += lin.jacobian.transpose() * lin.residual;
       eq->cost += lin.residual.squaredNorm();
       if (with_covariance) {
-        const Matrix44d weighted = lin.measurement_jacobian.transpose() * lin.jacobian;
+        const Matrix46d weighted = lin.measurement_jacobian.transpose() * lin.jacobian;
         eq->measurement_information.noalias() += weighted.transpose() * weighted;
       }
     }
   }
-  // A fixed height: an identity row keeps the 4x4 system regular and its step zero.
-  if (!estimate_height) eq->JtJ(3, 3) = 1.0;
+  // A fixed parameter: an identity row keeps the system regular and its step zero.
+  if (!nuisance.height) eq->JtJ(3, 3) = 1.0;
+  if (nuisance.tilt) {
+    // The tilt's prior (zero mean, σ_tilt) as residuals √w·(pitch, roll) in the units of the
+    // pixel residuals, so that σ_px² (JᵀJ)⁻¹ gives it σ_tilt alone.
+    for (int k = 4; k < 6; ++k) {
+      const double value = k == 4 ? state.pitch : state.roll;
+      eq->JtJ(k, k) += nuisance.tilt_weight;
+      eq->Jtr(k) += nuisance.tilt_weight * value;
+      eq->cost += nuisance.tilt_weight * value * value;
+      if (with_covariance) eq->measurement_information(k, k) += nuisance.tilt_weight;
+    }
+  } else {
+    eq->JtJ(4, 4) = 1.0;
+    eq->JtJ(5, 5) = 1.0;
+  }
   return std::isfinite(eq->cost);
 }
 
@@ -198,9 +253,16 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
 
   State state;
   state.pose = initial;
-  const bool estimate_height = options.estimate_height_offset;
+  Nuisance nuisance;
+  nuisance.height = options.estimate_height_offset;
+  nuisance.tilt = options.tilt_sigma_rad > 0.0;
+  if (nuisance.tilt) {
+    // With sigma_px = 0 (no covariance wanted) the prior still needs a pixel scale: 1 px.
+    const double pixel = options.sigma_px > 0.0 ? options.sigma_px : 1.0;
+    nuisance.tilt_weight = std::pow(pixel / options.tilt_sigma_rad, 2);
+  }
   NormalEquations eq;
-  if (!accumulate(camera, state, planes, options.cost, estimate_height, false, &eq)) {
+  if (!accumulate(camera, state, planes, options.cost, nuisance, false, &eq)) {
     return Status(StatusCode::kDegenerate, "initial pose puts the camera on a plane");
   }
   double lambda = 1e-6;
@@ -210,11 +272,11 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
       return Status(StatusCode::kDegenerate, "pose refinement: zero Jacobian");
     }
     bool improved = false;
-    Eigen::Vector4d step = Eigen::Vector4d::Zero();
+    Vector6d step = Vector6d::Zero();
     for (int attempt = 0; attempt < 20 && !improved; ++attempt) {
-      Eigen::Matrix4d damped = eq.JtJ;
+      Matrix6d damped = eq.JtJ;
       damped.diagonal() += lambda * eq.JtJ.diagonal();
-      const Eigen::LDLT<Eigen::Matrix4d> ldlt(damped);
+      const Eigen::LDLT<Matrix6d> ldlt(damped);
       if (ldlt.info() != Eigen::Success) {
         return Status(StatusCode::kDegenerate, "pose refinement: singular normal equations");
       }
@@ -224,9 +286,10 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
       candidate.pose = PlanarPose(state.pose.x + step(0), state.pose.z + step(1),
                                   wrapToPi(state.pose.theta + step(2)));
       candidate.height = state.height + step(3);
+      candidate.pitch = state.pitch + step(4);
+      candidate.roll = state.roll + step(5);
       NormalEquations candidate_eq;
-      if (accumulate(camera, candidate, planes, options.cost, estimate_height, false,
-                     &candidate_eq) &&
+      if (accumulate(camera, candidate, planes, options.cost, nuisance, false, &candidate_eq) &&
           candidate_eq.cost <= eq.cost) {
         state = candidate;
         eq = candidate_eq;
@@ -238,30 +301,32 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
     }
     const bool converged = Eigen::Vector3d(step(0), step(1), step(3)).norm() <
                                options.convergence_step &&
-                           std::abs(step(2)) < options.convergence_step;
+                           std::abs(step(2)) < options.convergence_step &&
+                           step.tail<2>().cwiseAbs().maxCoeff() < options.convergence_step;
     if (!improved || converged) {
       ++iteration;
       break;
     }
   }
 
-  if (!accumulate(camera, state, planes, options.cost, estimate_height, true, &eq)) {
+  if (!accumulate(camera, state, planes, options.cost, nuisance, true, &eq)) {
     return Status(StatusCode::kDegenerate, "refined pose puts the camera on a plane");
   }
-  const Eigen::FullPivLU<Eigen::Matrix4d> lu(eq.JtJ);
+  const Eigen::FullPivLU<Matrix6d> lu(eq.JtJ);
   if (!lu.isInvertible() || lu.rcond() < 1e-14) {
     return Status(StatusCode::kDegenerate,
                   "pose refinement: the matches do not constrain all of (x, z, θ)");
   }
-  const Eigen::Matrix4d JtJ_inverse = lu.inverse();
-  const Eigen::Matrix4d covariance = options.sigma_px * options.sigma_px * JtJ_inverse *
-                                     eq.measurement_information * JtJ_inverse;
+  const Matrix6d JtJ_inverse = lu.inverse();
+  const Matrix6d covariance = options.sigma_px * options.sigma_px * JtJ_inverse *
+                              eq.measurement_information * JtJ_inverse;
   RefinedPlanarPose result;
   result.pose = state.pose;
-  // The marginal covariance of (Cx, Cz, θ12): the height offset is a nuisance parameter.
+  // The marginal covariance of (Cx, Cz, θ12): height offset and tilt are nuisance parameters.
   result.covariance = covariance.topLeftCorner<3, 3>();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose());
   result.height_offset = state.height;
+  result.tilt = rotationX(state.pitch) * rotationZ(state.roll);
   const double residuals_per_match = options.cost == RefinementCost::kSampson ? 1.0 : 2.0;
   result.rms_transfer_error_px =
       std::sqrt(eq.cost / (residuals_per_match * static_cast<double>(total)));

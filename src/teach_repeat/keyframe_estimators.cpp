@@ -96,7 +96,9 @@ class FastHdEstimator final : public PointEstimator {
     // The pose must explain the matches through the keyframe's plane. Any homography gives a
     // Fast-HD pose, so a view dominated by another wall (a corner) gives a wrong pose with a small
     // DLT residual; the plane-induced homography of that pose does not fit it.
-    const Eigen::Matrix3d H_model = planeInducedHomography(context_.camera, pose->pose, *reference.plane);
+    // (With the tilt nuisance, the model includes the current camera's estimated tilt.)
+    const Eigen::Matrix3d H_model = context_.camera.K() * pose->tilt * context_.camera.Kinverse() *
+                                    planeInducedHomography(context_.camera, pose->pose, *reference.plane);
     double sum = 0.0;
     for (const int i : pose->inliers) {
       const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);

@@ -123,4 +123,16 @@ TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
   options.plane_distance_sigma = 0.03;
   options.plane_normal_sigma_rad = std::nan("");
   EXPECT_THROW(options.validate(), std::invalid_argument);
+  options.plane_normal_sigma_rad = 0.02;
+  for (const double bad : {-0.01, 0.3, std::nan("")}) {
+    options.tilt_sigma_rad = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument) << bad;
+  }
+  options.tilt_sigma_rad = 0.02;
+  EXPECT_NO_THROW(options.validate());
+  // On level data the tilt nuisance leaves the pose and reports no tilt.
+  const auto with_tilt = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  ASSERT_TRUE(with_tilt.isOk()) << with_tilt.status().toString();
+  expectPoseNear(with_tilt->pose, pixels_only->pose, 1e-9);
+  EXPECT_LT((with_tilt->tilt - Eigen::Matrix3d::Identity()).norm(), 1e-9);
 }

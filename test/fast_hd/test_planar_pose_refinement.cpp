@@ -105,3 +105,42 @@ TEST(PlanarPoseRefinement, FailureStatuses) {
   EXPECT_EQ(refinePlanarPose(kTruth, {{kPlane, matches}}, camera, options).status().code(),
             StatusCode::kInvalidInput);
 }
+
+// The current camera pitched 1° and rolled 0.6° (a robot without an IMU, docs/math.md §1.10): the
+// 3-DoF model reads the tilt as a wrong pose; with the tilt as a nuisance pair it recovers the pose
+// and the tilt exactly, and the covariance grows by the tilt's share.
+TEST(PlanarPoseRefinement, TiltNuisanceRecoversATiltedCamera) {
+  const double pitch = 1.0 * M_PI / 180.0, roll = 0.6 * M_PI / 180.0;
+  Eigen::Matrix3d Rx, Rz;
+  Rx << 1, 0, 0, 0, std::cos(pitch), -std::sin(pitch), 0, std::sin(pitch), std::cos(pitch);
+  Rz << std::cos(roll), -std::sin(roll), 0, std::sin(roll), std::cos(roll), 0, 0, 0, 1;
+  const PinholeCamera camera = mathCamera(800.0);
+  const Eigen::Matrix3d rotate = camera.K() * Rx * Rz * camera.Kinverse();
+  PointMatches tilted = matchesOf(kPlane, 40, 5);
+  for (auto& m : tilted) m.current = (rotate * m.current.homogeneous()).hnormalized();
+
+  PoseRefinementOptions level;
+  level.sigma_px = 0.5;
+  const auto biased = refinePlanarPose(kTruth, {{kPlane, tilted}}, camera, level);
+  ASSERT_TRUE(biased.isOk()) << biased.status().toString();
+  const double biased_error = std::hypot(biased->pose.x - kTruth.x, biased->pose.z - kTruth.z);
+  EXPECT_GT(biased_error, 0.02);
+  EXPECT_GT(biased->rms_transfer_error_px, 1.0);
+
+  PoseRefinementOptions with_tilt = level;
+  with_tilt.tilt_sigma_rad = 0.05;
+  const auto refined = refinePlanarPose(PlanarPose(kTruth.x + 0.1, kTruth.z - 0.1, kTruth.theta + 0.02),
+                                        {{kPlane, tilted}}, camera, with_tilt);
+  ASSERT_TRUE(refined.isOk()) << refined.status().toString();
+  expectPoseNear(refined->pose, kTruth, 1e-3);  // the prior pulls the tilt slightly towards 0
+  EXPECT_LT(refined->rms_transfer_error_px, 0.05);
+  EXPECT_LT((refined->tilt - Rx * Rz).norm(), 1e-3);
+
+  // On level data the nuisance costs precision only: the same pose, a larger covariance.
+  const PointMatches exact = matchesOf(kPlane, 40, 5);
+  const auto plain = refinePlanarPose(kTruth, {{kPlane, exact}}, camera, level);
+  const auto nuisance = refinePlanarPose(kTruth, {{kPlane, exact}}, camera, with_tilt);
+  ASSERT_TRUE(plain.isOk() && nuisance.isOk());
+  expectPoseNear(nuisance->pose, kTruth, 1e-9);
+  EXPECT_GE(nuisance->covariance.trace(), plain->covariance.trace());
+}

@@ -29,6 +29,10 @@ struct PlanarPoseEstimatorOptions {
   // covariance of the pixel noise alone.
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
+  // The current camera's tilt relative to the keyframe's as a nuisance pair in the refinement
+  // (PoseRefinementOptions::tilt_sigma_rad, docs/math.md §1.10): the std of its zero-mean prior
+  // [rad, 0-0.2]; 0: the camera is level (an IMU or a level mount). Needs `refine`.
+  double tilt_sigma_rad = 0.0;
 
   // Throws std::invalid_argument naming the field on an invalid value.
   void validate() const;
@@ -41,6 +45,7 @@ struct PlanarPoseEstimate {
   Eigen::Matrix3d fast_hd_covariance = Eigen::Matrix3d::Zero();
   bool refined = false;
   Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // inlier DLT, unit Frobenius norm
+  Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();  // the refinement's current-camera tilt
   std::vector<int> inliers;                          // indices into the input matches
   double rms_transfer_error_px = 0.0;
 };

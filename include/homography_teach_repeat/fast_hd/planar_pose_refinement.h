@@ -3,8 +3,9 @@
 // several planes of known parameters. The DLT fits 8 parameters; the plane being known leaves 3,
 // so the refined pose uses the data better (eval_fast_hd: "FastHD_refined").
 //
-// Model (docs/math.md §1.2): H21(pose) = K R21 (I − C nᵀ/d) K⁻¹, R21 = Ry(−θ12), C = (Cx, Cy, Cz) with
-// the height offset Cy either fixed at 0 or estimated as a nuisance parameter.
+// Model (docs/math.md §1.2): H21(pose) = K T R21 (I − C nᵀ/d) K⁻¹, R21 = Ry(−θ12), C = (Cx, Cy, Cz) with
+// the height offset Cy either fixed at 0 or estimated as a nuisance parameter, and T the current
+// camera's tilt (identity, or a nuisance pair with a prior, §1.10).
 // Cost (RefinementCost):
 //  - Sampson (default): per match r = W ε, ε = A_i h the algebraic DLT residual (docs/math.md §3.1),
 //    W = (B Bᵀ)^(-1/2), B = ∂ε/∂(u, v, u', v') (§3.4): the first-order geometric distance of the
@@ -52,12 +53,21 @@ struct PoseRefinementOptions {
   // model would otherwise absorb into a biased pose (measured on fountain-P11:
   // eval_real_fast_hd, README "Fast-HD on real walls").
   bool estimate_height_offset = true;
+  // Also estimate the current camera's tilt relative to the reference camera (pitch about its x
+  // axis, roll about its optical axis: a nuisance pair with a zero-mean prior of this std [rad];
+  // 0: no tilt). A robot without an IMU levels its images with one constant mount rotation, so
+  // the body's pitch and roll on a road (about 1°, ~6 px at f = 360 px) remain in every image and
+  // the 3-DoF model reads them as a wrong pose (docs/math.md §1.10).
+  double tilt_sigma_rad = 0.0;
 };
 
 struct RefinedPlanarPose {
   PlanarPose pose;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (Cx, Cz, θ12)
   double height_offset = 0.0;                             // Cy [m] (0 unless estimated)
+  // The current camera's estimated tilt T = Rx(pitch) Rz(roll) (identity unless estimated): the
+  // model homography is K T R21 (I − C nᵀ/d) K⁻¹.
+  Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();
   double rms_transfer_error_px = 0.0;  // RMS residual: Sampson distance or transfer error [px]
   int iterations = 0;
 };
