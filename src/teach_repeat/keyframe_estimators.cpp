@@ -67,7 +67,17 @@ class PointEstimator : public KeyframeEstimator {
     }
     estimate.has_pose = true;
     estimate.camera_relative = *relative;
-    estimate.base_pose = reference.base_pose.compose(mount_.cameraToBase(*relative));
+    const Pose2D relative_base = mount_.cameraToBase(*relative);
+    estimate.base_pose = reference.base_pose.compose(relative_base);
+    if (estimate.covariance_known && !reference.base_pose_covariance.isZero()) {
+      // base = reference ∘ relative: the reference pose's own uncertainty through ∂base/∂reference.
+      const double c = std::cos(reference.base_pose.yaw), s = std::sin(reference.base_pose.yaw);
+      Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+      J(0, 2) = -s * relative_base.x - c * relative_base.y;
+      J(1, 2) = c * relative_base.x - s * relative_base.y;
+      const Eigen::Matrix3d total = estimate.covariance + J * reference.base_pose_covariance * J.transpose();
+      estimate.covariance = 0.5 * (total + total.transpose());
+    }
     estimate.heading_correction = wrapToPi(estimate.base_pose.yaw - keyframeYaw(keyframe));
     return estimate;
   }
@@ -90,7 +100,11 @@ class FastHdEstimator final : public PointEstimator {
   Expected<PlanarPose> cameraPose(const KeyframeReference& reference, const PointMatches& matches,
                                   std::vector<int>* inliers, RepeatEstimate* estimate) const override {
     const RepeatOptions& options = context_.options;
-    const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, options.pose);
+    // The plane's uncertainty: the configured one, or the keyframe's own where that is larger.
+    PlanarPoseEstimatorOptions pose_options = options.pose;
+    pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
+    pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);
+    const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, pose_options);
     if (!pose) return pose.status();
     *inliers = pose->inliers;
     // The pose must explain the matches through the keyframe's plane. Any homography gives a

@@ -1,11 +1,13 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/homography/homography.h"
 
 namespace homography_teach_repeat {
@@ -54,11 +56,41 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
     }
     store.keyframes_.push_back(std::move(reference));
   }
+  const Pose2D& m = route.info.camera_mount;
+  const CameraMount mount(m.x, m.y, m.yaw);
   if (options.mode != RepeatMode::kMu && options.plane_feature_tolerance_px > 0.0) {
-    const Pose2D& m = route.info.camera_mount;
-    store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), CameraMount(m.x, m.y, m.yaw), options);
+    store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
   }
+  if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) store.measurePlaneAgreement(mount);
   return store;
+}
+
+void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
+  constexpr double kLargest = 0.5;  // the range PlanarPoseEstimatorOptions accepts
+  const int n = size();
+  for (int k = 0; k < n; ++k) {
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    if (!reference.plane) continue;
+    double angle_squares = 0.0, distance_squares = 0.0;
+    int neighbours = 0;
+    for (const int j : {k - 1, k + 1}) {
+      if (j < 0 || j >= n || !keyframes_[static_cast<std::size_t>(j)].plane) continue;
+      const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
+      // This keyframe's camera in the neighbour's camera frame.
+      const PlanarPose here = mount.baseToCamera(neighbour.base_pose.inverse().compose(reference.base_pose));
+      const auto carried = transferPlane(*neighbour.plane, here);
+      const double angle = carried ? std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0))
+                                   : kLargest * std::sqrt(2.0);  // the neighbour's plane is behind this camera
+      const double distance = carried ? std::abs(carried->distance - reference.plane->distance) / reference.plane->distance
+                                      : kLargest * std::sqrt(2.0);
+      angle_squares += angle * angle;
+      distance_squares += distance * distance;
+      ++neighbours;
+    }
+    if (neighbours == 0) continue;
+    reference.plane_normal_sigma_rad = std::min(kLargest, std::sqrt(angle_squares / (2.0 * neighbours)));
+    reference.plane_distance_sigma = std::min(kLargest, std::sqrt(distance_squares / (2.0 * neighbours)));
+  }
 }
 
 std::vector<Pose2D> KeyframeStore::poses() const {

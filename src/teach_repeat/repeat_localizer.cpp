@@ -13,6 +13,15 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+// The plane of a reference and its uncertainty, without its features.
+KeyframeReference planeOf(const KeyframeReference& reference) {
+  KeyframeReference plane_only;
+  plane_only.plane = reference.plane;
+  plane_only.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
+  plane_only.plane_distance_sigma = reference.plane_distance_sigma;
+  return plane_only;
+}
+
 // The caller's verdict on an estimate: only poses are checked (a μ fix is the filter's to judge).
 Status vet(const RepeatLocalizer::PoseCheck& check, const RepeatEstimate& estimate) {
   if (!check || !estimate.has_pose) return Status::ok();
@@ -107,7 +116,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   // (the caller decides about it, as without a check).
   std::optional<RepeatEstimate> first_refused;
   auto use = [&](RepeatEstimate estimate, int k) -> Expected<RepeatEstimate> {
-    keepAsTemporaryReference(frame, estimate, keyframes_.at(k).plane);
+    keepAsTemporaryReference(frame, estimate, keyframes_.at(k));
     degraded_frames_ = 0;
     rememberForTracking(estimate, gray, 0);
     advanceTracking(estimate);
@@ -139,8 +148,8 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   ++degraded_frames_;
   if (estimate->has_pose) {
     // Chain: this frame is the next temporary reference (paper 000, outdoor experiment).
-    const std::optional<ScenePlane> plane = temporary_->plane;  // the next one replaces it
-    keepAsTemporaryReference(frame, *estimate, plane);
+    const KeyframeReference source = planeOf(*temporary_);  // the next one replaces it
+    keepAsTemporaryReference(frame, *estimate, source);
     estimate->heading_correction =
         wrapToPi(estimate->base_pose.yaw - route_.keyframes[static_cast<std::size_t>(temporary_keyframe_)].pose.yaw);
   }
@@ -148,17 +157,21 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
 }
 
 void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
-                                               const std::optional<ScenePlane>& from_plane) {
+                                               const KeyframeReference& source) {
+  const std::optional<ScenePlane>& from_plane = source.plane;
   KeyframeReference current;
   current.features = std::move(frame.features);
   current.lines = std::move(frame.lines);
   if (estimate.has_pose) {
     // The frame's pose, and the reference's plane seen from it; without a plane it cannot serve.
     current.base_pose = estimate.base_pose;
+    if (estimate.covariance_known) current.base_pose_covariance = estimate.covariance;
     if (!from_plane) return;
     const auto plane = transferPlane(*from_plane, estimate.camera_relative);
     if (!plane) return;
     current.plane = *plane;
+    current.plane_normal_sigma_rad = source.plane_normal_sigma_rad;
+    current.plane_distance_sigma = source.plane_distance_sigma;
   } else {
     current.heading_offset = estimate.heading_correction;
   }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <filesystem>
 
+#include <Eigen/Eigenvalues>
+
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 #include "support/synthetic_route_test.h"
 
@@ -245,11 +247,17 @@ TEST_F(RepeatLocalizerTest, DegradedWhenOnlyTheLastFrameMatches) {
   strict.min_inliers = (on_a->inliers + on_b->inliers) / 2;
   auto localizer = RepeatLocalizer::create(route(), strict);
   ASSERT_TRUE(localizer.isOk());
-  ASSERT_TRUE(localizer->localize(wall_->imageAt(a)).isOk());
+  const auto first = localizer->localize(wall_->imageAt(a));
+  ASSERT_TRUE(first.isOk() && first->covariance_known);
   localizer->setTrackedKeyframe(0);
   const auto estimate = localizer->localize(wall_->imageAt(b));
   ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
   EXPECT_TRUE(estimate->degraded);
+  // B's pose is measured against A's estimate: A's uncertainty is in B's covariance.
+  ASSERT_TRUE(estimate->covariance_known);
+  const Eigen::Matrix3d excess = estimate->covariance - first->covariance;
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(excess).eigenvalues().minCoeff(), -1e-12)
+      << "covariance of B:\n" << estimate->covariance << "\nof A:\n" << first->covariance;
   EXPECT_EQ(estimate->keyframe, 0);
   EXPECT_NEAR(estimate->base_pose.x, basePose(b).x, 0.03);
   EXPECT_NEAR(estimate->base_pose.y, basePose(b).y, 0.03);
@@ -395,4 +403,37 @@ TEST_F(RepeatLocalizerTest, ARefusedPoseLetsTheNeighbourTry) {
   const auto first = localizer->localize(wall_->imageAt(PlanarPose(0.085, 0.33, 0.047)), std::nullopt, refuse_all);
   ASSERT_TRUE(first.isOk()) << first.status().toString();
   EXPECT_EQ(first->keyframe, tracked);
+}
+
+// plane_sigma_from_neighbours: the synthetic route's keyframes all see the same wall, so each
+// plane agrees with its neighbours' carried into its frame and the covariance barely grows; a
+// route whose keyframe 1 plane is turned by 0.2 rad says so in that keyframe's covariance.
+TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
+  const PlanarPose camera_pose(0.085, 0.31, 0.047);
+  RepeatOptions plain;
+  plain.neighbour_search = 0;
+  RepeatOptions measured = plain;
+  measured.plane_sigma_from_neighbours = true;
+  auto reference = RepeatLocalizer::create(route(), plain);
+  auto consistent = RepeatLocalizer::create(route(), measured);
+  ASSERT_TRUE(reference.isOk() && consistent.isOk());
+  reference->setTrackedKeyframe(1);
+  consistent->setTrackedKeyframe(1);
+  const auto a = reference->localize(wall_->imageAt(camera_pose));
+  const auto b = consistent->localize(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(a.isOk() && b.isOk());
+  EXPECT_NEAR(b->base_pose.x, a->base_pose.x, 1e-9);  // the pose does not change
+  EXPECT_LT(b->covariance.trace(), 1.5 * a->covariance.trace());
+
+  Route tilted = route();
+  ScenePlane& plane = *tilted.keyframes[1].plane;
+  const double c = std::cos(0.2), s = std::sin(0.2);
+  plane.normal = Eigen::Vector3d(c * plane.normal.x() - s * plane.normal.z(), 0.0,
+                                 s * plane.normal.x() + c * plane.normal.z()).normalized();
+  auto disagreeing = RepeatLocalizer::create(tilted, measured);
+  ASSERT_TRUE(disagreeing.isOk());
+  disagreeing->setTrackedKeyframe(1);
+  const auto d = disagreeing->localize(wall_->imageAt(camera_pose));
+  ASSERT_TRUE(d.isOk()) << d.status().toString();
+  EXPECT_GT(d->covariance.trace(), 4.0 * a->covariance.trace());
 }

@@ -21,8 +21,15 @@ struct KeyframeReference {
   ImageFeatures features;              // fast_hd/classic
   std::vector<VerticalLine> lines;     // mu
   Pose2D base_pose;                    // route frame
+  // Zero for a keyframe (its pose defines the route); a temporary reference's pose is an estimate,
+  // and its covariance (x, y, yaw) carries into the poses measured against it.
+  Eigen::Matrix3d base_pose_covariance = Eigen::Matrix3d::Zero();
   std::optional<ScenePlane> plane;     // camera frame of this reference
   double heading_offset = 0.0;         // mu mode: yaw of this reference relative to its keyframe
+  // The plane's uncertainty measured from the neighbours (RepeatOptions::plane_sigma_from_neighbours):
+  // std of the normal's direction [rad] and of the distance [fraction]; 0 when not measured.
+  double plane_normal_sigma_rad = 0.0;
+  double plane_distance_sigma = 0.0;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
 };
 
@@ -49,6 +56,10 @@ class KeyframeStore {
   // keyframe's plane then gives a wrong pose that no residual reveals. So each keyframe keeps only
   // the features that move as its plane predicts to a neighbouring keyframe.
   void restrictToPlaneFeatures(const PinholeCamera& camera, const CameraMount& mount, const RepeatOptions& options);
+  // Each plane against its neighbours' planes carried into its frame by the taught motion
+  // (transferPlane): the two estimates differ by √2 σ when both have σ, so σ = RMS difference / √2
+  // over the neighbours (normal angle [rad], distance relative to the plane's), clamped to 0.5.
+  void measurePlaneAgreement(const CameraMount& mount);
 
   std::vector<KeyframeReference> keyframes_;
 };

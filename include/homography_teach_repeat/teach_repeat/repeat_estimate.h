@@ -41,6 +41,12 @@ struct RepeatOptions {
   // fast_hd/classic: each keyframe matches with the features on its plane only: those that move
   // as the plane predicts to the neighbouring keyframe within this tolerance [px] (0: all).
   double plane_feature_tolerance_px = 2.0;
+  // fast_hd: each keyframe plane's own uncertainty from how its neighbours' planes, carried into
+  // its frame by the taught motion, disagree with it (KeyframeStore, docs/math.md §3.6): the
+  // covariance then uses max(pose.plane_*_sigma, the keyframe's). Where the taught planes are
+  // consistent (a wall along a corridor or a street) it adds little; where each keyframe saw a
+  // different mixture of surfaces (a street corner) it says so.
+  bool plane_sigma_from_neighbours = false;
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;

@@ -83,10 +83,10 @@ class RepeatLocalizer {
                                                      const std::optional<Pose2D>& predicted_pose, int neighbour_search,
                                                      int max_degraded_frames, const PoseCheck& check);
   Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray, const PoseCheck& check);
-  // The frame that just localized against a reference whose plane is `from_plane` becomes the
-  // temporary reference (a pose estimate needs that plane seen from the frame).
+  // The frame that just localized against `source` becomes the temporary reference (a pose
+  // estimate needs source's plane seen from the frame; its uncertainty goes with it).
   void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
-                                const std::optional<ScenePlane>& from_plane);
+                                const KeyframeReference& source);
   // Keeps the estimate's inliers for the optical flow of the next frames (or forgets them).
   void rememberForTracking(const RepeatEstimate& estimate, const cv::Mat& gray, int frames_tracked);
   void advanceTracking(const RepeatEstimate& estimate);
