@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"plane-sigma-from-neighbours", "0"}},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
       "  [--heading-noise RAD/sqrt(M)] [--seed S] (odometry synthesized where the data has none)\n"
       "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
+      "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
       "  [--plots 0|1]");
   args.parse(argc, argv);
@@ -129,6 +130,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.localization.pose.tilt_sigma_rad = args.number("tilt-sigma");
   options.repeat.localization.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
+  options.repeat.localization.max_tracked_frames = args.integer("max-tracked-frames");
   options.teach.route_directory = out + "/route";
   options.teach.overwrite = true;
   const std::string teach_odometry = args.text("teach-odometry");
@@ -219,6 +221,7 @@ int main(int argc, char** argv) {
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
                        {"tilt_sigma", options.repeat.localization.pose.tilt_sigma_rad},
                        {"plane_sigma_from_neighbours", options.repeat.localization.plane_sigma_from_neighbours},
+                       {"max_tracked_frames", options.repeat.localization.max_tracked_frames},
                        {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
                        {"planes", options.teach.planes_from_odometry ? "from odometry" : "first plane distance"},
                        {"command", [&] {
