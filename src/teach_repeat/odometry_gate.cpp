@@ -82,18 +82,14 @@ Status OdometryGate::agrees(const Pose2D& visual, const Pose2D& odometry) const 
 }
 
 Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
-  if (!finitePose(visual) || !finitePose(odometry)) {
-    return Status(StatusCode::kInvalidInput, "odometry gate: non-finite visual or odometry pose");
-  }
+  Status verdict = agrees(visual, odometry);
+  if (verdict.code() == StatusCode::kInvalidInput) return verdict;
   const Anchor current{visual, odometry};
-  std::string disagreement;
-  const bool agrees = accepted_.empty() || (excess(accepted_.back(), visual, odometry, &disagreement) <= 0.0 &&
-                                            excess(accepted_.front(), visual, odometry, &disagreement) <= 0.0);
-  if (agrees) {
+  if (verdict.isOk()) {
     accept(current);
     candidate_.reset();
     candidates_ = 0;
-    return Status::ok();
+    return verdict;
   }
   // Refused: does it continue the run of refused poses?
   // (Compared with the first pose of the run, so that a run creeping away frame by frame does not
@@ -111,7 +107,7 @@ Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
     candidates_ = 0;
     return Status::ok();
   }
-  return Status(StatusCode::kNoConsensus, "visual pose refused: " + disagreement);
+  return verdict;
 }
 
 }  // namespace homography_teach_repeat

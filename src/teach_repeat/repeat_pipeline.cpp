@@ -86,17 +86,18 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   // The odometry gate's verdict on each reference's pose, inside the localizer: a pose it would
   // refuse from one keyframe lets the neighbour try (repeat_localizer.h). The pose returned is then
   // gated for real (accepted, or refused and counted towards a switch of reference).
+  // The odometry at the image stamp is looked up once for every pose of this frame.
+  const auto odom_near_image = odometry_.poseNear(stamp, kOdometryLag);
   const RepeatLocalizer::PoseCheck would_pass = [&](const RepeatEstimate& candidate) {
-    if (!odometry_gate_) return Status::ok();
-    const auto odom = odometry_.poseNear(stamp, kOdometryLag);
-    return odom ? odometry_gate_->agrees(candidate.base_pose, *odom) : Status::ok();
+    return odometry_gate_ && odom_near_image ? odometry_gate_->agrees(candidate.base_pose, *odom_near_image)
+                                             : Status::ok();
   };
   const auto estimate = initialized_ ? localizer_.localize(*image, predictedMuPose(stamp), would_pass)
                                      : localizer_.initializeGlobally(*image);
   result.timing = localizer_.lastTiming();
   if (!estimate) return fail(estimate.status());
   if (estimate->has_pose) {
-    const Status gated = gate(stamp, *estimate, &result.warning);
+    const Status gated = gate(odom_near_image, *estimate, &result.warning);
     if (!gated.isOk()) {
       ++statistics_.gated;
       return fail(gated);
@@ -132,9 +133,8 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   return result;
 }
 
-Status RepeatPipeline::gate(double stamp, const RepeatEstimate& estimate, std::string* warning) {
+Status RepeatPipeline::gate(const Expected<Pose2D>& odom, const RepeatEstimate& estimate, std::string* warning) {
   if (!odometry_gate_) return Status::ok();
-  const auto odom = odometry_.poseNear(stamp, kOdometryLag);
   if (!odom) {
     *warning = "no odometry at the image stamp, the pose is not checked against odometry (odometry_gate): " +
                odom.status().toString();

@@ -85,7 +85,8 @@ class RepeatPipeline {
   RepeatPipeline(RepeatLocalizer localizer, const RepeatPipelineOptions& options);
   RepeatFrameResult fail(RepeatFrameResult result, const Status& status);
   // fast_hd/classic: the visual pose checked against the odometry.
-  Status gate(double stamp, const RepeatEstimate& estimate, std::string* warning);
+  // `odom`: the odometry at the image stamp (or why there is none).
+  Status gate(const Expected<Pose2D>& odom, const RepeatEstimate& estimate, std::string* warning);
   // mu: the filter at `stamp` corrected by the estimate's μ.
   Status correctMuFilter(double stamp, const RepeatEstimate& estimate);
   // mu, a frame without a fix: the filter alone, within mu_max_unaided_distance.
