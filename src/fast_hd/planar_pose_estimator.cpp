@@ -28,6 +28,9 @@ void PlanarPoseEstimatorOptions::validate() const {
   if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0.0 || tilt_sigma_rad > 0.2) {
     throw std::invalid_argument("tilt_sigma must be in [0, 0.2] rad, got " + std::to_string(tilt_sigma_rad));
   }
+  if (!std::isfinite(heading_sigma_rad) || heading_sigma_rad < 0.0 || heading_sigma_rad > 0.05) {
+    throw std::invalid_argument("heading_sigma must be in [0, 0.05] rad, got " + std::to_string(heading_sigma_rad));
+  }
   if (refinement_max_iterations < 1) {
     throw std::invalid_argument("refinement_max_iterations must be >= 1");
   }
@@ -86,9 +89,14 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
                                                            options.plane_distance_sigma);
   if (!plane_covariance) return plane_covariance.status();
 
+  // The heading's own error floor (docs/math.md §3.8): a common rotation of the current camera
+  // about its vertical axis moves θ12 and leaves the centre where it is.
+  Eigen::Matrix3d model_covariance = *plane_covariance;
+  model_covariance(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
+
   PlanarPoseEstimate estimate;
   estimate.fast_hd_pose = solution->pose;
-  estimate.fast_hd_covariance = *covariance + *plane_covariance;
+  estimate.fast_hd_covariance = *covariance + model_covariance;
   estimate.pose = solution->pose;
   estimate.covariance = estimate.fast_hd_covariance;
   estimate.H = dlt->H_unscaled / dlt->H_unscaled.norm();
@@ -108,7 +116,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
         refinePlanarPose(solution->pose, {PlaneMatches{plane, matches}}, camera, refinement);
     if (!refined) return refined.status();
     estimate.pose = refined->pose;
-    estimate.covariance = refined->covariance + *plane_covariance;
+    estimate.covariance = refined->covariance + model_covariance;
     estimate.tilt = refined->tilt;
     estimate.refined = true;
   }

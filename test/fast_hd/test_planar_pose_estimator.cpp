@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <Eigen/Eigenvalues>
@@ -135,4 +136,25 @@ TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
   ASSERT_TRUE(with_tilt.isOk()) << with_tilt.status().toString();
   expectPoseNear(with_tilt->pose, pixels_only->pose, 1e-9);
   EXPECT_LT((with_tilt->tilt - Eigen::Matrix3d::Identity()).norm(), 1e-9);
+}
+
+// The heading's error floor (docs/math.md §3.8) adds σ² to the heading's variance of both
+// covariances and nothing else; the pose does not change; values outside [0, 0.05] rad throw.
+TEST(PlanarPoseEstimator, HeadingSigmaAddsToTheHeadingVarianceOnly) {
+  PlanarPoseEstimatorOptions options;
+  const auto pixels_only = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  options.heading_sigma_rad = 0.0007;
+  EXPECT_NO_THROW(options.validate());
+  const auto with_floor = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  ASSERT_TRUE(pixels_only.isOk()) << pixels_only.status().toString();
+  ASSERT_TRUE(with_floor.isOk()) << with_floor.status().toString();
+  expectPoseNear(with_floor->pose, pixels_only->pose, 1e-12);
+  Eigen::Matrix3d added = Eigen::Matrix3d::Zero();
+  added(2, 2) = 0.0007 * 0.0007;
+  EXPECT_LT((with_floor->covariance - pixels_only->covariance - added).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((with_floor->fast_hd_covariance - pixels_only->fast_hd_covariance - added).cwiseAbs().maxCoeff(), 1e-15);
+  for (const double bad : {-0.001, 0.06, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    options.heading_sigma_rad = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument) << bad;
+  }
 }

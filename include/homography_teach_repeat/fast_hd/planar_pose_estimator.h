@@ -33,6 +33,11 @@ struct PlanarPoseEstimatorOptions {
   // (PoseRefinementOptions::tilt_sigma_rad, docs/math.md §1.10): the std of its zero-mean prior
   // [rad, 0-0.2]; 0: the camera is level (an IMU or a level mount). Needs `refine`.
   double tilt_sigma_rad = 0.0;
+  // An error of the heading that many matches do not average away (docs/math.md §3.8): the
+  // camera's calibration, the image's common-mode shift, the reference's own heading. Its
+  // variance [rad², this std 0-0.05 rad] is added to the heading's in both covariances; 0: pixel
+  // noise alone sets the heading's std (hundreds of matches on a wall give a few 0.01°).
+  double heading_sigma_rad = 0.0;
 
   // Throws std::invalid_argument naming the field on an invalid value.
   void validate() const;
