@@ -1,7 +1,9 @@
 #include "homography_teach_repeat/fast_hd/fast_hd.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
@@ -233,6 +235,79 @@ Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, co
   return ScenePlane{m / norm, 1.0 / norm};
 }
 
+Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                                          const PlanarPose& motion, double min_baseline,
+                                                          double max_tilt) {
+  if (!H21.allFinite() || !motion.isFinite()) {
+    return Status(StatusCode::kNotFinite, "homography and motion must be finite");
+  }
+  const Eigen::Matrix3d R21 = motion.rotation21();
+  const Eigen::Vector3d C = motion.centre();
+  if (!(C.norm() >= min_baseline) || !(C.norm() > 1e-12)) {
+    return Status(StatusCode::kDegenerate, "the motion has no translation: the plane is not observable");
+  }
+  // docs/math.md §2.5: K⁻¹H21K = λ T R21 (I − C mᵀ), so across C (unit u ⊥ C) the plane drops out:
+  // r_u(s, pitch, roll) = s (K⁻¹H21K)ᵀ T R21 u − u = 0 for both u, with s = 1/λ. Six equations in
+  // three unknowns, solved by Gauss-Newton from the level camera (s from the linear fit).
+  const Eigen::Vector3d u1 = C.unitOrthogonal();
+  const Eigen::Vector3d u2 = C.normalized().cross(u1);
+  const Eigen::Matrix3d Hc = camera.Kinverse() * H21 * camera.K();
+  auto rotation = [](double angle, const Eigen::Vector3d& axis) {
+    return Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+  };
+  auto skew = [](const Eigen::Vector3d& w) {
+    Eigen::Matrix3d S;
+    S << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
+    return S;
+  };
+  const Eigen::Matrix3d Sx = skew(Eigen::Vector3d::UnitX()), Sz = skew(Eigen::Vector3d::UnitZ());
+  double scale = 0.0, pitch = 0.0, roll = 0.0;
+  {
+    const Eigen::Vector3d a1 = Hc.transpose() * R21 * u1, a2 = Hc.transpose() * R21 * u2;
+    const double denominator = a1.squaredNorm() + a2.squaredNorm();
+    if (!(denominator > 0.0)) return Status(StatusCode::kDegenerate, "the homography is zero across the motion");
+    scale = (a1.dot(u1) + a2.dot(u2)) / denominator;
+  }
+  constexpr int kMaxIterations = 30;
+  for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
+    const Eigen::Matrix3d Rx = rotation(pitch, Eigen::Vector3d::UnitX()), Rz = rotation(roll, Eigen::Vector3d::UnitZ());
+    const Eigen::Matrix3d T = Rx * Rz, dT_pitch = Rx * Sx * Rz, dT_roll = Rx * Rz * Sz;
+    Eigen::Matrix<double, 6, 3> J;
+    Eigen::Matrix<double, 6, 1> r;
+    int row = 0;
+    for (const Eigen::Vector3d& u : {u1, u2}) {
+      const Eigen::Vector3d Ru = R21 * u;
+      r.segment<3>(row) = scale * Hc.transpose() * T * Ru - u;
+      J.block<3, 1>(row, 0) = Hc.transpose() * T * Ru;
+      J.block<3, 1>(row, 1) = scale * Hc.transpose() * dT_pitch * Ru;
+      J.block<3, 1>(row, 2) = scale * Hc.transpose() * dT_roll * Ru;
+      row += 3;
+    }
+    const Eigen::ColPivHouseholderQR<Eigen::Matrix<double, 6, 3>> qr(J);
+    if (qr.rank() < 3) return Status(StatusCode::kDegenerate, "the tilt is not observable from this homography");
+    const Eigen::Vector3d step = qr.solve(-r);
+    if (!step.allFinite()) return Status(StatusCode::kNotFinite, "tilt estimation is not finite");
+    scale += step(0);
+    pitch += step(1);
+    roll += step(2);
+    if (std::abs(step(1)) + std::abs(step(2)) < 1e-15 && std::abs(step(0)) < 1e-15 * std::abs(scale)) break;
+  }
+  PlaneAndTilt result;
+  result.tilt = rotation(pitch, Eigen::Vector3d::UnitX()) * rotation(roll, Eigen::Vector3d::UnitZ());
+  result.pitch = pitch;
+  result.roll = roll;
+  if (!(std::abs(result.pitch) <= max_tilt) || !(std::abs(result.roll) <= max_tilt)) {
+    return Status(StatusCode::kDegenerate, "the homography asks for a tilt of pitch " + std::to_string(result.pitch) +
+                                               " rad, roll " + std::to_string(result.roll) + " rad (more than " +
+                                               std::to_string(max_tilt) + ")");
+  }
+  const Eigen::Matrix3d levelled = camera.K() * result.tilt.transpose() * Hc * camera.Kinverse();
+  const auto plane = planeFromHomographyAndMotion(levelled, camera, motion, min_baseline);
+  if (!plane) return plane.status();
+  result.plane = *plane;
+  return result;
+}
+
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,
                                                         const OdometryPlaneOptions& options) {
@@ -244,8 +319,15 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
       return Status(StatusCode::kInvalidInput, "pair " + std::to_string(k) + " has no odometry motion");
     }
     if (!pairs[k].has_homography) continue;
-    const auto plane = planeFromHomographyAndMotion(pairs[k].H_next_from_current, camera,
-                                                    pairs[k].odometry_motion, options.min_baseline);
+    Expected<ScenePlane> plane = Status(StatusCode::kDegenerate, "not estimated");
+    if (options.estimate_tilt) {
+      const auto with_tilt = planeAndTiltFromHomographyAndMotion(pairs[k].H_next_from_current, camera,
+                                                                 pairs[k].odometry_motion, options.min_baseline);
+      plane = with_tilt ? Expected<ScenePlane>(with_tilt->plane) : Expected<ScenePlane>(with_tilt.status());
+    } else {
+      plane = planeFromHomographyAndMotion(pairs[k].H_next_from_current, camera, pairs[k].odometry_motion,
+                                           options.min_baseline);
+    }
     // Plausible: a wall (not floor/ceiling), in front of the camera, not too far.
     if (plane && plane->validate().isOk() && plane->normal.z() > 0.0 && plane->distance < options.max_distance) {
       planes[k] = *plane;

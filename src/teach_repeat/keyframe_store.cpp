@@ -9,6 +9,7 @@
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/homography/homography.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
 
 namespace homography_teach_repeat {
 namespace {
@@ -108,12 +109,23 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(k + 1 < n ? k + 1 : k - 1)];
     const PlanarPose relative = mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
-    const Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
+    Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
     const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
     if (!dmatches) continue;
     std::vector<int> kept;
     const PointMatches on_pixels =
         undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
+    if (options.pose.tilt_sigma_rad > 0.0) {
+      // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
+      // against this one, and the planar-motion homography misses the plane by several pixels
+      // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
+      // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
+      const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
+      if (pair) {
+        const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
+        if (tilt) H = camera.K() * tilt->tilt * camera.Kinverse() * H;
+      }
+    }
     std::vector<int> on_plane;
     for (std::size_t i = 0; i < on_pixels.size(); ++i) {
       if (transferError(H, on_pixels[i]) < options.plane_feature_tolerance_px) {

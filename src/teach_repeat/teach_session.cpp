@@ -109,9 +109,11 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     pairs.push_back(pair);
   }
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
+  OdometryPlaneOptions plane_options;
+  plane_options.estimate_tilt = options_.estimate_keyframe_tilt;
   if (!pairs.empty()) {
     const auto estimated = options_.planes_from_odometry
-                               ? estimatePlanesFromOdometry(pairs, camera_)
+                               ? estimatePlanesFromOdometry(pairs, camera_, plane_options)
                                : estimatePlanesAlongRoute(pairs, camera_, options_.first_plane_distance);
     if (estimated) {
       for (std::size_t k = 0; k < estimated->planes.size(); ++k) planes[k] = estimated->planes[k];

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Geometry>
+
 #include "support/geometry_fixtures.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/eval/synthetic_plane_scene.h"
@@ -216,4 +218,58 @@ TEST(PlaneEstimation, PlanesFromOdometryAcrossTwoWalls) {
     EXPECT_NEAR((result->planes[k].normal - truth->normal).norm(), 0.0, 1e-6) << k;
     EXPECT_NEAR(result->planes[k].distance, truth->distance, 1e-6) << k;
   }
+}
+
+// docs/math.md §2.5: the second camera tilted (pitch, roll) relative to the first. The planar-motion
+// formula reads the tilt as a wrong plane; the tilt-aware one recovers plane and tilt, for forward
+// and sideways motion, at any scale and sign of H; the same call on level data reports no tilt.
+TEST(PlaneEstimation, PlaneAndTiltFromHomographyAndKnownMotion) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const double alpha = 0.6 * u(rng), beta = 0.3 * u(rng);
+    const ScenePlane plane{Eigen::Vector3d(std::cos(beta) * std::sin(alpha), std::sin(beta),
+                                           std::cos(beta) * std::cos(alpha)),
+                           2.0 + 3.0 * (u(rng) + 1.0)};
+    const PlanarPose motion = trial % 2 == 0 ? PlanarPose(0.1 * u(rng), 1.0 + 0.5 * u(rng), 0.2 * u(rng))
+                                             : PlanarPose(0.8 + 0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng));
+    const double pitch = 0.03 * u(rng), roll = 0.03 * u(rng);
+    const Eigen::Matrix3d T = (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()) *
+                               Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()))
+                                  .toRotationMatrix();
+    const PinholeCamera& camera = mathCamera();
+    const Eigen::Matrix3d H =
+        -2.3 * camera.K() * T * camera.Kinverse() * planeInducedHomography(camera, motion, plane);
+    const auto estimated = planeAndTiltFromHomographyAndMotion(H, camera, motion);
+    ASSERT_TRUE(estimated.isOk()) << trial << ": " << estimated.status().toString();
+    EXPECT_NEAR((estimated->plane.normal - plane.normal).norm(), 0.0, 1e-9) << trial;
+    EXPECT_NEAR(estimated->plane.distance, plane.distance, 1e-9 * plane.distance) << trial;
+    EXPECT_NEAR(estimated->pitch, pitch, 1e-10) << trial;
+    EXPECT_NEAR(estimated->roll, roll, 1e-10) << trial;
+    // Without the tilt the plane is wrong: what the constant-mount teach run used to store.
+    const auto planar = planeFromHomographyAndMotion(H, camera, motion);
+    if (planar && std::hypot(pitch, roll) > 0.01) {
+      EXPECT_GT((planar->normal - plane.normal).norm() + std::abs(planar->distance - plane.distance), 1e-3) << trial;
+    }
+  }
+  const PlanarPose forward(0.0, 1.0, 0.0);
+  const ScenePlane wall{Eigen::Vector3d(-0.6, 0.0, 0.8), 5.0};
+  const auto level = planeAndTiltFromHomographyAndMotion(planeInducedHomography(mathCamera(), forward, wall),
+                                                         mathCamera(), forward);
+  ASSERT_TRUE(level.isOk()) << level.status().toString();
+  EXPECT_LT((level->tilt - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  // A pure rotation does not see the plane; a tilt beyond max_tilt is refused.
+  const PlanarPose rotation(0.0, 0.0, 0.3);
+  EXPECT_EQ(planeAndTiltFromHomographyAndMotion(planeInducedHomography(mathCamera(), rotation, wall), mathCamera(),
+                                                rotation, 0.1)
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
+  const Eigen::Matrix3d big_pitch = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_EQ(planeAndTiltFromHomographyAndMotion(mathCamera().K() * big_pitch * mathCamera().Kinverse() *
+                                                    planeInducedHomography(mathCamera(), forward, wall),
+                                                mathCamera(), forward)
+                .status()
+                .code(),
+            StatusCode::kDegenerate);
 }

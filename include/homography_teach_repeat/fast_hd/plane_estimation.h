@@ -76,6 +76,22 @@ Expected<ScenePlane> estimateSecondPlane(const Eigen::Matrix3d& H_first,
 Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
                                                  const PlanarPose& motion, double min_baseline = 1e-6);
 
+// The same when the second camera may be tilted (pitch, roll) relative to the first, as a body on
+// a road is while the images are levelled by one constant mount (docs/math.md §2.5): H21 = K T R21
+// (I − C nᵀ/d) K⁻¹ with T = Rx(pitch) Rz(roll) unknown. The parts of K⁻¹H21K across C fix the
+// scale and T (six equations in three unknowns, Gauss-Newton); the plane then follows as above
+// from T⁻¹ H21. Status: as above; kDegenerate also when T is not observable or its angles
+// exceed `max_tilt` [rad].
+struct PlaneAndTilt {
+  ScenePlane plane;
+  Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();  // T
+  double pitch = 0.0;                                  // [rad], about the camera's x axis
+  double roll = 0.0;                                   // [rad], about its optical axis
+};
+Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
+                                                          const PlanarPose& motion, double min_baseline = 1e-6,
+                                                          double max_tilt = 0.1);
+
 // One step of the teach sequence: the homography from reference k to reference k+1 (of the
 // plane tracked along the route), the inlier reference pixels, and the odometry motion.
 struct ReferencePair {
@@ -110,6 +126,9 @@ Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<Referen
 struct OdometryPlaneOptions {
   double min_baseline = 0.15;  // [m]
   double max_distance = 50.0;  // [m]
+  // Estimate each pair's relative tilt with its plane (planeAndTiltFromHomographyAndMotion): for
+  // images levelled by one constant mount rotation, whose body pitches and rolls between keyframes.
+  bool estimate_tilt = false;
 };
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,

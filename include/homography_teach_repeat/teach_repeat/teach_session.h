@@ -35,6 +35,10 @@ struct TeachOptions {
   // routes past several walls, e.g. round a room) instead of the paper's single plane tracked
   // from the first keyframe; first_plane_distance is then not needed.
   bool planes_from_odometry = false;
+  // With planes_from_odometry: estimate each keyframe pair's relative pitch and roll together with
+  // its plane (docs/math.md §2.5). For images levelled by one constant mount rotation (no IMU): the
+  // body's pitch and roll between two keyframes otherwise read as a wrong plane.
+  bool estimate_keyframe_tilt = false;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
