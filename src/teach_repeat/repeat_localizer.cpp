@@ -125,7 +125,11 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   for (const int k : candidates) {
     auto estimate = against(keyframes_.at(k), k);
     if (!estimate) {
-      last_failure = Status(estimate.status().code(), "keyframe " + std::to_string(k) + ": " + estimate.status().message());
+      // Every candidate's reason, nearest first: which keyframe failed how is what a user needs.
+      const std::string reason = "keyframe " + std::to_string(k) + ": " + estimate.status().message();
+      const bool first = k == candidates.front();
+      last_failure = Status(first ? estimate.status().code() : last_failure.code(),
+                            first ? reason : last_failure.message() + "; " + reason);
       continue;
     }
     const Status verdict = vet(check, *estimate);

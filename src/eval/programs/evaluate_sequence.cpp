@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -102,6 +102,7 @@ int main(int argc, char** argv) {
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
       "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
+      "  [--max-plane-residual PX] (RMS of the matches about the keyframe plane's homography above which a keyframe is refused)\n"
       "  [--teach-tilt 0|1] (each keyframe pair's relative pitch and roll estimated with its plane)\n"
       "  [--heading-sigma RAD] (a heading error many matches do not average away, added to the covariance)\n"
       "  [--plots 0|1]");
@@ -126,6 +127,7 @@ int main(int argc, char** argv) {
   options.teach.first_plane_distance = args.number("first-plane-distance");
   options.teach.planes_from_odometry = !(options.teach.first_plane_distance > 0.0);
   options.teach.estimate_keyframe_tilt = args.integer("teach-tilt") != 0;
+  options.repeat.localization.max_plane_residual_px = args.number("max-plane-residual");
   options.teach.keyframes.distance = args.number("keyframe-distance");
   options.teach.keyframes.angle = args.number("keyframe-angle");
   options.repeat.localization.pose.pixel_sigma_px = args.number("pixel-sigma");
@@ -226,6 +228,7 @@ int main(int argc, char** argv) {
                        {"tilt_sigma", options.repeat.localization.pose.tilt_sigma_rad},
                        {"heading_sigma", options.repeat.localization.pose.heading_sigma_rad},
                        {"teach_tilt", options.teach.estimate_keyframe_tilt},
+                       {"max_plane_residual_px", options.repeat.localization.max_plane_residual_px},
                        {"plane_sigma_from_neighbours", options.repeat.localization.plane_sigma_from_neighbours},
                        {"max_tracked_frames", options.repeat.localization.max_tracked_frames},
                        {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
