@@ -66,6 +66,19 @@ Pose2D SynthesizedOdometry::add(const Pose2D& truth) {
   return odometry_;
 }
 
+MeasuredVelocity velocityFromOdometry(const Pose2D& previous, const Pose2D& current, double dt,
+                                      const OdometryErrorModel& model) {
+  MeasuredVelocity velocity;
+  if (!(dt > 0.0) || !std::isfinite(dt)) return velocity;
+  const Pose2D increment = previous.inverse().compose(current);
+  const double distance = std::hypot(increment.x, increment.y);
+  velocity.v = (increment.x < 0.0 ? -distance : distance) / dt;
+  velocity.w = increment.yaw / dt;
+  velocity.covariance(0, 0) = model.distance_noise * model.distance_noise * distance / (dt * dt);
+  velocity.covariance(1, 1) = model.heading_noise * model.heading_noise * distance / (dt * dt);
+  return velocity;
+}
+
 Pose2D integrateArc(const Pose2D& pose, double v, double w, double dt) {
   const double dtheta = w * dt;
   if (std::abs(dtheta) < 1e-9) {
@@ -99,6 +112,18 @@ std::pair<double, double> DifferentialDriveSim::step(double v, double w, double 
   // Odometry: the measured arc (scaled distance, biased and noisy heading change).
   const auto [measured_length, measured_turn] = measuredMotion(distance, w * dt, errors_, rng_);
   const double measured_distance = v < 0.0 ? -measured_length : measured_length;
+  // Covariance, first order about the chord at the mid heading: F = ∂pose'/∂pose,
+  // G = ∂pose'/∂(distance, turn), Q = the random walk's variances for this step.
+  const double mid = odometry_.yaw + 0.5 * measured_turn;
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  F(0, 2) = -measured_distance * std::sin(mid);
+  F(1, 2) = measured_distance * std::cos(mid);
+  Eigen::Matrix<double, 3, 2> G;
+  G << std::cos(mid), -0.5 * measured_distance * std::sin(mid), std::sin(mid), 0.5 * measured_distance * std::cos(mid),
+      0.0, 1.0;
+  const Eigen::Vector2d q(errors_.distance_noise * errors_.distance_noise * distance,
+                          errors_.heading_noise * errors_.heading_noise * distance);
+  covariance_ = F * covariance_ * F.transpose() + G * q.asDiagonal() * G.transpose();
   odometry_ = integrateArc(odometry_, measured_distance / dt, measured_turn / dt, dt);
   return {v, w};
 }
@@ -107,6 +132,7 @@ void DifferentialDriveSim::reset(const Pose2D& truth, const Pose2D& odometry) {
   truth_ = truth;
   odometry_ = odometry;
   distance_ = 0.0;
+  covariance_.setZero();
 }
 
 }  // namespace homography_teach_repeat

@@ -54,13 +54,31 @@ TEST(PlanarWorldSim, PublishesEverythingAndDrives) {
 
   // Drive 2 m forward at 0.5 m/s (sim time), then stop.
   const double start_clock = clock;
+  nav_msgs::Odometry moving_odom, moving_truth;  // in mid-drive
   ASSERT_TRUE(test_support::spinUntil([&] { return clock - start_clock > 4.0; }, 30.0,
                                       [&] {
                                         geometry_msgs::Twist t;
                                         t.linear.x = 0.5;
                                         cmd.publish(t);
+                                        if (clock - start_clock > 2.0 && moving_odom.header.frame_id.empty()) {
+                                          moving_odom = odom;
+                                          moving_truth = truth;
+                                        }
                                       },
                                       0.05));
+  // Odometry as a base publishes it: the twist it measures (0.5 m/s; the heading bias turns it
+  // at 0.05 rad/m x 0.5 m/s) and the truth's; covariances from the model's random walk.
+  ASSERT_FALSE(moving_odom.header.frame_id.empty());
+  // Tolerances 4 σ of one 20 ms interval's random walk (0.05 m/s, 0.01 rad/s).
+  EXPECT_NEAR(moving_odom.twist.twist.linear.x, 0.5, 0.2);
+  EXPECT_NEAR(moving_odom.twist.twist.angular.z, 0.025, 0.04);
+  EXPECT_NEAR(moving_truth.twist.twist.linear.x, 0.5, 0.01);
+  EXPECT_NEAR(moving_truth.twist.twist.angular.z, 0.0, 1e-9);
+  // distance_noise 0.01 m/sqrt(m): per 20 ms interval (0.01 m) the speed's variance is
+  // 1e-4 x 0.01 / 0.02² = 2.5e-3 (m/s)², plus the 1e-6 floor.
+  EXPECT_NEAR(moving_odom.twist.covariance[0], 2.5e-3, 0.5e-3);
+  EXPECT_GT(moving_odom.twist.covariance[35], 0.0);
+  EXPECT_EQ(moving_odom.twist.covariance[14], 1e6);
   cmd.publish(geometry_msgs::Twist());
   const double stop_clock = clock;
   ASSERT_TRUE(test_support::spinUntil([&] { return clock - stop_clock > 1.0; }, 10.0));
@@ -71,6 +89,12 @@ TEST(PlanarWorldSim, PublishesEverythingAndDrives) {
   EXPECT_NEAR(yawOf(truth.pose.pose.orientation), 0.0, 1e-9);
   // The odometry's heading bias (0.05 rad/m) makes it believe it turned.
   EXPECT_NEAR(yawOf(odom.pose.pose.orientation), 0.05 * travelled, 0.01);
+  // The pose covariance grows with the distance: σ_d² s along x (1e-4 x 2 m), σ_h² s in yaw.
+  EXPECT_NEAR(odom.pose.covariance[0], 1e-4 * travelled + 1e-6, 0.2e-4);
+  EXPECT_NEAR(odom.pose.covariance[35], 4e-6 * travelled + 1e-6, 1e-6);
+  EXPECT_GT(odom.pose.covariance[7], 1e-6);  // sideways, from the heading's random walk
+  EXPECT_EQ(odom.pose.covariance[14], 1e6);   // z: not observed by a planar base
+  EXPECT_NEAR(odom.twist.twist.linear.x, 0.0, 1e-9);
   // Stopped: cmd_vel timed out or zero, the robot stays.
   const double x_stopped = truth.pose.pose.position.x;
   ASSERT_TRUE(test_support::spinUntil([&] { return clock - stop_clock > 2.0; }, 10.0));

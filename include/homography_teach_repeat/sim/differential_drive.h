@@ -4,6 +4,7 @@
 // distance, a heading bias per metre (unequal wheel radii), and random walk noise.
 #pragma once
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include <cstdint>
@@ -54,6 +55,18 @@ struct DriveLimits {
   void validate() const;
 };
 
+// The base's velocity over an interval as its odometry reports it: the increment from `previous`
+// to `current` (odometry poses) in the body frame over `dt` [s] (forward speed signed by the
+// direction of travel, yaw rate), and its covariance over (v, w) from the model's random walk
+// (distance_noise² |Δs| / dt², heading_noise² |Δs| / dt²). dt must be > 0.
+struct MeasuredVelocity {
+  double v = 0.0;
+  double w = 0.0;
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
+};
+MeasuredVelocity velocityFromOdometry(const Pose2D& previous, const Pose2D& current, double dt,
+                                      const OdometryErrorModel& model);
+
 // Exact pose after driving (v, w) for dt from `pose` (a straight line when w is ~0).
 Pose2D integrateArc(const Pose2D& pose, double v, double w, double dt);
 
@@ -70,6 +83,11 @@ class DifferentialDriveSim {
   const Pose2D& truth() const { return truth_; }
   const Pose2D& odometry() const { return odometry_; }
   double distanceTravelled() const { return distance_; }
+  // The odometry pose's covariance over (x, y, yaw) in the odometry frame, propagated step by step
+  // from the model's random walk (distance_noise² and heading_noise² per metre travelled; first
+  // order along the arc). The scale error and heading bias are a calibration the base does not
+  // know about and are not in it, as on a real base (docs/simulator.md).
+  const Eigen::Matrix3d& odometryCovariance() const { return covariance_; }
   // Teleport (tests, resets): truth and odometry to the given poses.
   void reset(const Pose2D& truth, const Pose2D& odometry);
 
@@ -80,6 +98,7 @@ class DifferentialDriveSim {
   Pose2D truth_;
   Pose2D odometry_;
   double distance_ = 0.0;
+  Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
 };
 
 }  // namespace homography_teach_repeat

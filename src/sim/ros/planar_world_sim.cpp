@@ -20,17 +20,27 @@
 namespace homography_teach_repeat {
 namespace {
 
-nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, const std::string& frame,
-                                   const std::string& child, double v, double w) {
+// Odometry as a base publishes it: pose and twist with their covariances, row-major 6x6. The
+// planar entries (pose x, y, yaw; twist vx, vy, wz) get the model's covariance plus `floor` (never
+// exactly zero: robot_localization warns about zero variances and takes them as certainty); the
+// others (z, roll, pitch and their rates: a planar base does not observe them) `unobserved`.
+nav_msgs::Odometry odometryMessage(const Pose2D& pose, const Eigen::Matrix3d& pose_covariance,
+                                   const MeasuredVelocity& velocity, const ros::Time& stamp, const std::string& frame,
+                                   const std::string& child, double floor, double unobserved) {
   nav_msgs::Odometry m;
   m.header.stamp = stamp;
   m.header.frame_id = frame;
   m.child_frame_id = child;
-  m.pose.pose.position.x = pose.x;
-  m.pose.pose.position.y = pose.y;
-  m.pose.pose.orientation = ros_conversions::yawQuaternion(pose.yaw);
-  m.twist.twist.linear.x = v;
-  m.twist.twist.angular.z = w;
+  const Eigen::Matrix3d covariance = pose_covariance + floor * Eigen::Matrix3d::Identity();
+  m.pose = ros_conversions::toPoseWithCovariance(pose, &covariance, unobserved);
+  m.twist.twist.linear.x = velocity.v;
+  m.twist.twist.angular.z = velocity.w;
+  auto& t = m.twist.covariance;
+  t.fill(0.0);
+  t[0 * 6 + 0] = velocity.covariance(0, 0) + floor;
+  t[1 * 6 + 1] = floor;  // no sideways slip: known to be ~0
+  t[5 * 6 + 5] = velocity.covariance(1, 1) + floor;
+  t[2 * 6 + 2] = t[3 * 6 + 3] = t[4 * 6 + 4] = unobserved;
   return m;
 }
 
@@ -105,6 +115,11 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   errors.heading_bias_per_metre = readParameter(p, "odometry_heading_bias_per_metre", errors.heading_bias_per_metre);
   errors.distance_noise = readParameter(p, "odometry_distance_noise", errors.distance_noise);
   errors.heading_noise = readParameter(p, "odometry_heading_noise", errors.heading_noise);
+  odometry_errors_ = errors;
+  odometry_variance_floor_ = readParameter(p, "odometry_variance_floor", odometry_variance_floor_);
+  if (!std::isfinite(odometry_variance_floor_) || !(odometry_variance_floor_ > 0.0)) {
+    throw std::runtime_error("parameter '" + p.resolveName("odometry_variance_floor") + "' must be > 0");
+  }
   DriveLimits limits;
   limits.max_linear_velocity = readParameter(p, "max_linear_velocity", limits.max_linear_velocity);
   limits.max_angular_velocity = readParameter(p, "max_angular_velocity", limits.max_angular_velocity);
@@ -198,8 +213,18 @@ void PlanarWorldSim::run() {
 void PlanarWorldSim::publishState(const ros::Time& stamp) {
   const Pose2D& odom = robot_->odometry();
   const Pose2D& truth = robot_->truth();
-  odometry_publisher_.publish(odometryMessage(odom, stamp, odom_frame_, base_frame_, 0.0, 0.0));
-  ground_truth_publisher_.publish(odometryMessage(truth, stamp, world_frame_, base_frame_, 0.0, 0.0));
+  // Velocities over the interval since the previous message (the first one: at rest).
+  const double interval = last_state_stamp_ ? (stamp - *last_state_stamp_).toSec() : 0.0;
+  const MeasuredVelocity odometry_velocity =
+      velocityFromOdometry(last_state_ ? last_state_->first : odom, odom, interval, odometry_errors_);
+  const MeasuredVelocity truth_velocity =
+      velocityFromOdometry(last_state_ ? last_state_->second : truth, truth, interval, OdometryErrorModel());
+  last_state_ = std::make_pair(odom, truth);
+  last_state_stamp_ = stamp;
+  odometry_publisher_.publish(odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp, odom_frame_,
+                                              base_frame_, odometry_variance_floor_, kUnobservedVariance));
+  ground_truth_publisher_.publish(odometryMessage(truth, Eigen::Matrix3d::Zero(), truth_velocity, stamp, world_frame_,
+                                                  base_frame_, odometry_variance_floor_, kUnobservedVariance));
   tf_broadcaster_.sendTransform(transformMessage(odom, 0.0, stamp, odom_frame_, base_frame_));
   tf_broadcaster_.sendTransform(
       transformMessage(truth, 0.0, stamp, world_frame_, ground_truth_prefix_ + "/" + base_frame_));

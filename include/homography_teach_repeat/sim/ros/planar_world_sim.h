@@ -24,6 +24,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
@@ -63,6 +64,12 @@ class PlanarWorldSim {
   int scan_count_ = 0;
   double scan_angle_min_ = -M_PI / 2, scan_angle_max_ = M_PI / 2, scan_range_max_ = 8.0;
   std::string odom_frame_, base_frame_, camera_frame_, world_frame_, ground_truth_prefix_;
+
+  OdometryErrorModel odometry_errors_;
+  double odometry_variance_floor_ = 1e-6;  // added to every planar variance of odom [m², rad², (m/s)², (rad/s)²]
+  static constexpr double kUnobservedVariance = 1e6;  // z, roll, pitch and their rates
+  std::optional<std::pair<Pose2D, Pose2D>> last_state_;  // odometry and truth at the last state message
+  std::optional<ros::Time> last_state_stamp_;
 
   std::mutex command_mutex_;
   double command_v_ = 0.0, command_w_ = 0.0;
