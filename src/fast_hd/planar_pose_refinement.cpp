@@ -7,6 +7,8 @@
 #include <cmath>
 #include <string>
 
+#include "homography_teach_repeat/geometry/camera_tilt.h"
+
 namespace homography_teach_repeat {
 namespace {
 
@@ -43,27 +45,6 @@ struct State {
   Eigen::Vector3d centre() const { return Eigen::Vector3d(pose.x, height, pose.z); }
 };
 
-Eigen::Matrix3d rotationX(double a) {
-  Eigen::Matrix3d r;
-  r << 1.0, 0.0, 0.0, 0.0, std::cos(a), -std::sin(a), 0.0, std::sin(a), std::cos(a);
-  return r;
-}
-Eigen::Matrix3d rotationZ(double a) {
-  Eigen::Matrix3d r;
-  r << std::cos(a), -std::sin(a), 0.0, std::sin(a), std::cos(a), 0.0, 0.0, 0.0, 1.0;
-  return r;
-}
-Eigen::Matrix3d rotationXDerivative(double a) {
-  Eigen::Matrix3d r;
-  r << 0.0, 0.0, 0.0, 0.0, -std::sin(a), -std::cos(a), 0.0, std::cos(a), -std::sin(a);
-  return r;
-}
-Eigen::Matrix3d rotationZDerivative(double a) {
-  Eigen::Matrix3d r;
-  r << -std::sin(a), -std::cos(a), 0.0, std::cos(a), -std::sin(a), 0.0, 0.0, 0.0, 0.0;
-  return r;
-}
-
 bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlane& plane,
                 ModelHomography* model) {
   const PlanarPose& pose = state.pose;
@@ -73,8 +54,8 @@ bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlan
   const Eigen::RowVector3d n_over_d = plane.normal.transpose() / plane.distance;
   const Eigen::Matrix3d plane_term = Eigen::Matrix3d::Identity() - state.centre() * n_over_d;
   // The current camera's tilt T = Rx(pitch) Rz(roll) rotates its rays after the planar motion.
-  const Eigen::Matrix3d T = rotationX(state.pitch) * rotationZ(state.roll);
-  const Eigen::Matrix3d KT = K * T;
+  const CameraTilt tilt = cameraTilt(state.pitch, state.roll);
+  const Eigen::Matrix3d KT = K * tilt.T;
   model->H = KT * R21 * plane_term * K_inverse;
   // det H ∝ det(I − C nᵀ/d) = 1 − nᵀC/d = (distance of camera 2 to the plane)/d.
   const double relative_distance = 1.0 - n_over_d.dot(state.centre());
@@ -89,8 +70,8 @@ bool buildModel(const PinholeCamera& camera, const State& state, const ScenePlan
       -std::sin(theta21);
   model->dH[2] = -KT * d_rotation * plane_term * K_inverse;
   model->dH[3] = -KT * R21 * Eigen::Vector3d::UnitY() * n_over_d * K_inverse;
-  model->dH[4] = K * rotationXDerivative(state.pitch) * rotationZ(state.roll) * R21 * plane_term * K_inverse;
-  model->dH[5] = K * rotationX(state.pitch) * rotationZDerivative(state.roll) * R21 * plane_term * K_inverse;
+  model->dH[4] = K * tilt.dT_dpitch * R21 * plane_term * K_inverse;
+  model->dH[5] = K * tilt.dT_droll * R21 * plane_term * K_inverse;
   return model->H.allFinite() && model->H_inverse.allFinite();
 }
 
@@ -326,7 +307,7 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
   result.covariance = covariance.topLeftCorner<3, 3>();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose());
   result.height_offset = state.height;
-  result.tilt = rotationX(state.pitch) * rotationZ(state.roll);
+  result.tilt = cameraTilt(state.pitch, state.roll).T;
   const double residuals_per_match = options.cost == RefinementCost::kSampson ? 1.0 : 2.0;
   result.rms_transfer_error_px =
       std::sqrt(eq.cost / (residuals_per_match * static_cast<double>(total)));

@@ -1,7 +1,6 @@
 #include "homography_teach_repeat/fast_hd/fast_hd.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 
-#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/QR>
 
@@ -11,6 +10,7 @@
 #include <limits>
 #include <string>
 
+#include "homography_teach_repeat/geometry/camera_tilt.h"
 #include "homography_teach_repeat/homography/homography_decomposition.h"
 
 namespace homography_teach_repeat {
@@ -252,15 +252,6 @@ Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d
   const Eigen::Vector3d u1 = C.unitOrthogonal();
   const Eigen::Vector3d u2 = C.normalized().cross(u1);
   const Eigen::Matrix3d Hc = camera.Kinverse() * H21 * camera.K();
-  auto rotation = [](double angle, const Eigen::Vector3d& axis) {
-    return Eigen::AngleAxisd(angle, axis).toRotationMatrix();
-  };
-  auto skew = [](const Eigen::Vector3d& w) {
-    Eigen::Matrix3d S;
-    S << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
-    return S;
-  };
-  const Eigen::Matrix3d Sx = skew(Eigen::Vector3d::UnitX()), Sz = skew(Eigen::Vector3d::UnitZ());
   double scale = 0.0, pitch = 0.0, roll = 0.0;
   {
     const Eigen::Vector3d a1 = Hc.transpose() * R21 * u1, a2 = Hc.transpose() * R21 * u2;
@@ -270,17 +261,16 @@ Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d
   }
   constexpr int kMaxIterations = 30;
   for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
-    const Eigen::Matrix3d Rx = rotation(pitch, Eigen::Vector3d::UnitX()), Rz = rotation(roll, Eigen::Vector3d::UnitZ());
-    const Eigen::Matrix3d T = Rx * Rz, dT_pitch = Rx * Sx * Rz, dT_roll = Rx * Rz * Sz;
+    const CameraTilt tilt = cameraTilt(pitch, roll);
     Eigen::Matrix<double, 6, 3> J;
     Eigen::Matrix<double, 6, 1> r;
     int row = 0;
     for (const Eigen::Vector3d& u : {u1, u2}) {
       const Eigen::Vector3d Ru = R21 * u;
-      r.segment<3>(row) = scale * Hc.transpose() * T * Ru - u;
-      J.block<3, 1>(row, 0) = Hc.transpose() * T * Ru;
-      J.block<3, 1>(row, 1) = scale * Hc.transpose() * dT_pitch * Ru;
-      J.block<3, 1>(row, 2) = scale * Hc.transpose() * dT_roll * Ru;
+      r.segment<3>(row) = scale * Hc.transpose() * tilt.T * Ru - u;
+      J.block<3, 1>(row, 0) = Hc.transpose() * tilt.T * Ru;
+      J.block<3, 1>(row, 1) = scale * Hc.transpose() * tilt.dT_dpitch * Ru;
+      J.block<3, 1>(row, 2) = scale * Hc.transpose() * tilt.dT_droll * Ru;
       row += 3;
     }
     const Eigen::ColPivHouseholderQR<Eigen::Matrix<double, 6, 3>> qr(J);
@@ -293,7 +283,6 @@ Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d
     if (std::abs(step(1)) + std::abs(step(2)) < 1e-15 && std::abs(step(0)) < 1e-15 * std::abs(scale)) break;
   }
   PlaneAndTilt result;
-  result.tilt = rotation(pitch, Eigen::Vector3d::UnitX()) * rotation(roll, Eigen::Vector3d::UnitZ());
   result.pitch = pitch;
   result.roll = roll;
   if (!(std::abs(result.pitch) <= max_tilt) || !(std::abs(result.roll) <= max_tilt)) {
@@ -301,12 +290,26 @@ Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d
                                                " rad, roll " + std::to_string(result.roll) + " rad (more than " +
                                                std::to_string(max_tilt) + ")");
   }
-  const Eigen::Matrix3d levelled = camera.K() * result.tilt.transpose() * Hc * camera.Kinverse();
+  const Eigen::Matrix3d levelled = camera.K() * result.tilt().transpose() * Hc * camera.Kinverse();
   const auto plane = planeFromHomographyAndMotion(levelled, camera, motion, min_baseline);
   if (!plane) return plane.status();
   result.plane = *plane;
   return result;
 }
+
+namespace {
+// One pair's plane from its homography and odometry motion, with the pair's tilt when asked.
+Expected<ScenePlane> planeOfPair(const ReferencePair& pair, const PinholeCamera& camera,
+                                 const OdometryPlaneOptions& options) {
+  if (!options.estimate_tilt) {
+    return planeFromHomographyAndMotion(pair.H_next_from_current, camera, pair.odometry_motion, options.min_baseline);
+  }
+  const auto with_tilt =
+      planeAndTiltFromHomographyAndMotion(pair.H_next_from_current, camera, pair.odometry_motion, options.min_baseline);
+  if (!with_tilt) return with_tilt.status();
+  return with_tilt->plane;
+}
+}  // namespace
 
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,
@@ -319,15 +322,7 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
       return Status(StatusCode::kInvalidInput, "pair " + std::to_string(k) + " has no odometry motion");
     }
     if (!pairs[k].has_homography) continue;
-    Expected<ScenePlane> plane = Status(StatusCode::kDegenerate, "not estimated");
-    if (options.estimate_tilt) {
-      const auto with_tilt = planeAndTiltFromHomographyAndMotion(pairs[k].H_next_from_current, camera,
-                                                                 pairs[k].odometry_motion, options.min_baseline);
-      plane = with_tilt ? Expected<ScenePlane>(with_tilt->plane) : Expected<ScenePlane>(with_tilt.status());
-    } else {
-      plane = planeFromHomographyAndMotion(pairs[k].H_next_from_current, camera, pairs[k].odometry_motion,
-                                           options.min_baseline);
-    }
+    const auto plane = planeOfPair(pairs[k], camera, options);
     // Plausible: a wall (not floor/ceiling), in front of the camera, not too far.
     if (plane && plane->validate().isOk() && plane->normal.z() > 0.0 && plane->distance < options.max_distance) {
       planes[k] = *plane;

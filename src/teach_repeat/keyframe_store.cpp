@@ -123,7 +123,7 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
       const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
       if (pair) {
         const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
-        if (tilt) H = camera.K() * tilt->tilt * camera.Kinverse() * H;
+        if (tilt) H = camera.K() * tilt->tilt() * camera.Kinverse() * H;
       }
     }
     std::vector<int> on_plane;

@@ -257,7 +257,7 @@ TEST(PlaneEstimation, PlaneAndTiltFromHomographyAndKnownMotion) {
   const auto level = planeAndTiltFromHomographyAndMotion(planeInducedHomography(mathCamera(), forward, wall),
                                                          mathCamera(), forward);
   ASSERT_TRUE(level.isOk()) << level.status().toString();
-  EXPECT_LT((level->tilt - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_LT((level->tilt() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
   // A pure rotation does not see the plane; a tilt beyond max_tilt is refused.
   const PlanarPose rotation(0.0, 0.0, 0.3);
   EXPECT_EQ(planeAndTiltFromHomographyAndMotion(planeInducedHomography(mathCamera(), rotation, wall), mathCamera(),

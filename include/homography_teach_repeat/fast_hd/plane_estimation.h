@@ -13,6 +13,7 @@
 
 #include <vector>
 
+#include "homography_teach_repeat/geometry/camera_tilt.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
@@ -84,9 +85,9 @@ Expected<ScenePlane> planeFromHomographyAndMotion(const Eigen::Matrix3d& H21, co
 // exceed `max_tilt` [rad].
 struct PlaneAndTilt {
   ScenePlane plane;
-  Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();  // T
-  double pitch = 0.0;                                  // [rad], about the camera's x axis
-  double roll = 0.0;                                   // [rad], about its optical axis
+  double pitch = 0.0;  // [rad], about the camera's x axis
+  double roll = 0.0;   // [rad], about its optical axis
+  Eigen::Matrix3d tilt() const { return cameraTilt(pitch, roll).T; }  // T
 };
 Expected<PlaneAndTilt> planeAndTiltFromHomographyAndMotion(const Eigen::Matrix3d& H21, const PinholeCamera& camera,
                                                           const PlanarPose& motion, double min_baseline = 1e-6,

@@ -214,13 +214,11 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
   const Pose2D& odom = robot_->odometry();
   const Pose2D& truth = robot_->truth();
   // Velocities over the interval since the previous message (the first one: at rest).
-  const double interval = last_state_stamp_ ? (stamp - *last_state_stamp_).toSec() : 0.0;
-  const MeasuredVelocity odometry_velocity =
-      velocityFromOdometry(last_state_ ? last_state_->first : odom, odom, interval, odometry_errors_);
-  const MeasuredVelocity truth_velocity =
-      velocityFromOdometry(last_state_ ? last_state_->second : truth, truth, interval, OdometryErrorModel());
-  last_state_ = std::make_pair(odom, truth);
-  last_state_stamp_ = stamp;
+  const StateSample previous = last_state_.value_or(StateSample{odom, truth, stamp});
+  const double interval = (stamp - previous.stamp).toSec();
+  const MeasuredVelocity odometry_velocity = velocityFromOdometry(previous.odometry, odom, interval, odometry_errors_);
+  const MeasuredVelocity truth_velocity = velocityFromOdometry(previous.truth, truth, interval, OdometryErrorModel());
+  last_state_ = StateSample{odom, truth, stamp};
   odometry_publisher_.publish(odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp, odom_frame_,
                                               base_frame_, odometry_variance_floor_, kUnobservedVariance));
   ground_truth_publisher_.publish(odometryMessage(truth, Eigen::Matrix3d::Zero(), truth_velocity, stamp, world_frame_,

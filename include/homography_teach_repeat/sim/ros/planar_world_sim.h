@@ -24,7 +24,6 @@
 #include <optional>
 #include <string>
 #include <thread>
-#include <utility>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
@@ -68,8 +67,12 @@ class PlanarWorldSim {
   OdometryErrorModel odometry_errors_;
   double odometry_variance_floor_ = 1e-6;  // added to every planar variance of odom [m², rad², (m/s)², (rad/s)²]
   static constexpr double kUnobservedVariance = 1e6;  // z, roll, pitch and their rates
-  std::optional<std::pair<Pose2D, Pose2D>> last_state_;  // odometry and truth at the last state message
-  std::optional<ros::Time> last_state_stamp_;
+  struct StateSample {
+    Pose2D odometry, truth;
+    ros::Time stamp;
+  };
+  std::optional<StateSample> last_state_;  // at the last state message, for the twist
+
 
   std::mutex command_mutex_;
   double command_v_ = 0.0, command_w_ = 0.0;
