@@ -29,6 +29,10 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.closed_route_gap = readParameter(nh, "closed_route_gap", r.closed_route_gap);
     r.mu_skip_turn_keyframes = readParameter(nh, "mu_skip_turn_keyframes", r.mu_skip_turn_keyframes);
     r.mu_max_reference_angle = readParameter(nh, "mu_max_reference_angle", r.mu_max_reference_angle);
+    r.lines.min_length_px = readParameter(nh, "line_min_length_px", r.lines.min_length_px);
+    r.mu_line_landmarks = readParameter(nh, "mu_line_landmarks", r.mu_line_landmarks);
+    r.line_landmarks.max_reprojection_px = readParameter(nh, "line_landmark_max_reprojection", r.line_landmarks.max_reprojection_px);
+    r.line_landmarks.max_depth_m = readParameter(nh, "line_landmark_max_depth", r.line_landmarks.max_depth_m);
     HeadingAidedOdometryOptions& m = o.mu_filter;
     m.initial_position_variance = readParameter(nh, "mu_initial_position_variance", m.initial_position_variance);
     m.position_variance_per_metre = readParameter(nh, "mu_position_variance_per_metre", m.position_variance_per_metre);
@@ -40,6 +44,10 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     m.refused_before_reset = readParameter(nh, "mu_gate_switch_after", m.refused_before_reset);
     m.max_mu_step_px = readParameter(nh, "mu_max_step", m.max_mu_step_px);
     m.max_confirmation_distance = readParameter(nh, "mu_max_confirmation_distance", m.max_confirmation_distance);
+    m.line_sigma_px = readParameter(nh, "mu_line_sigma", m.line_sigma_px);
+    m.min_landmark_lines = readParameter(nh, "mu_min_landmark_lines", m.min_landmark_lines);
+    m.line_position_sigma_m = readParameter(nh, "mu_line_position_sigma", m.line_position_sigma_m);
+    m.line_heading_sigma_rad = readParameter(nh, "mu_line_heading_sigma", m.line_heading_sigma_rad);
     if (readParameter(nh, "odometry_gate", true)) {
       OdometryGateOptions& g = o.odometry_gate.emplace();
       g.position_tolerance = readParameter(nh, "gate_position_tolerance", g.position_tolerance);

@@ -206,7 +206,8 @@ class MuEstimator final : public KeyframeEstimator {
   }
 
   bool usable(const KeyframeReference& reference, int keyframe, const std::optional<Pose2D>& predicted_pose) const override {
-    if (context_.options.mu_skip_turn_keyframes && reference.turn) return false;
+    // A keyframe with line landmarks models each line's depth, also at a corner.
+    if (context_.options.mu_skip_turn_keyframes && reference.turn && reference.line_landmarks.empty()) return false;
     if (!predicted_pose || !std::isfinite(predicted_pose->yaw)) return true;
     const double reference_yaw = keyframeYaw(keyframe) + reference.heading_offset;
     return std::abs(wrapToPi(reference_yaw - predicted_pose->yaw)) <= context_.options.mu_max_reference_angle;
@@ -215,6 +216,17 @@ class MuEstimator final : public KeyframeEstimator {
   Expected<RepeatEstimate> estimate(const KeyframeReference& reference, int keyframe, const FrameObservations& frame,
                                     const std::optional<Pose2D>& predicted_pose) const override {
     const bool prior = predicted_pose && predicted_pose->isFinite();
+    if (!reference.line_landmarks.empty()) {
+      // The filter pairs the lines with the landmarks at its own prediction (RepeatPipeline).
+      RepeatEstimate estimate;
+      estimate.mode = RepeatMode::kMu;
+      estimate.keyframe = keyframe;
+      estimate.line_landmark_fix = true;
+      estimate.matches = static_cast<int>(reference.line_landmarks.size());
+      estimate.heading_correction = reference.heading_offset;
+      estimate.current_lines = frame.lines;
+      return estimate;
+    }
     // Guided matching: the keyframe's wall at the predicted pose moves the lines by the offset and
     // depth change as well as the rotation; a reference without a wall (the temporary one of this
     // mode has no plane, nor has a keyframe on the floor) by the rotation only.

@@ -63,7 +63,33 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
     store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
   }
   if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) store.measurePlaneAgreement(mount);
+  if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
+    store.triangulateLines(PinholeCamera(route.info.camera), mount, options.line_landmarks);
+  }
   return store;
+}
+
+void KeyframeStore::triangulateLines(const PinholeCamera& camera, const CameraMount& mount,
+                                     const LineLandmarkOptions& options) {
+  constexpr int kViewsEachSide = 2;
+  const LineCamera lens{camera.fx(), camera.cx()};
+  const int n = size();
+  for (int k = 0; k < n; ++k) {
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    std::vector<LineView> views;
+    // Nearest first: the first view with a candidate decides (triangulateLineLandmarks).
+    for (int d = 1; d <= kViewsEachSide; ++d) {
+      for (const int j : {k + d, k - d}) {
+        if (j < 0 || j >= n) continue;
+        const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
+        views.push_back(LineView{mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose)),
+                                 &neighbour.lines});
+      }
+    }
+    auto landmarks = triangulateLineLandmarks(reference.lines, views, lens, options);
+    // (Fails only on a bad camera or options, which load() has validated.)
+    if (landmarks) reference.line_landmarks = std::move(*landmarks);
+  }
 }
 
 void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {

@@ -47,6 +47,7 @@ void RepeatOptions::validate() const {
   if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
     throw std::invalid_argument("closed_route_gap must be finite and >= 0");
   }
+  line_landmarks.validate();
   if (!(mu_max_reference_angle > 0.0 && mu_max_reference_angle <= M_PI)) {
     throw std::invalid_argument("mu_max_reference_angle must be in (0, pi]");
   }

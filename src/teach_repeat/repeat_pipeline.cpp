@@ -92,7 +92,7 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
     return odometry_gate_ && odom_near_image ? odometry_gate_->agrees(candidate.base_pose, *odom_near_image)
                                              : Status::ok();
   };
-  const auto estimate = initialized_ ? localizer_.localize(*image, predictedMuPose(stamp), would_pass)
+  auto estimate = initialized_ ? localizer_.localize(*image, predictedMuPose(stamp), would_pass)
                                      : localizer_.initializeGlobally(*image);
   result.timing = localizer_.lastTiming();
   if (!estimate) return fail(estimate.status());
@@ -105,7 +105,7 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   } else {
     // mu: the fix corrects the filter; refused by it (kNoConsensus: its innovation gate, or no
     // confirmation by the previous frame) or without odometry it is a failed frame.
-    const Status corrected = correctMuFilter(stamp, *estimate);
+    const Status corrected = correctMuFilter(stamp, &*estimate);
     if (!corrected.isOk()) {
       if (corrected.code() == StatusCode::kNoConsensus) ++statistics_.gated;
       return fail(corrected);
@@ -143,7 +143,8 @@ Status RepeatPipeline::gate(const Expected<Pose2D>& odom, const RepeatEstimate& 
   return odometry_gate_->check(estimate.base_pose, *odom);
 }
 
-Status RepeatPipeline::correctMuFilter(double stamp, const RepeatEstimate& estimate) {
+Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix) {
+  const RepeatEstimate& estimate = *fix;
   const auto odom = odometry_.poseAt(stamp);
   if (!odom) {
     return Status(StatusCode::kInvalidInput, "mu mode needs odometry ('odom') at the image stamp: " + odom.status().toString());
@@ -157,6 +158,11 @@ Status RepeatPipeline::correctMuFilter(double stamp, const RepeatEstimate& estim
     // match of the global initialization), with the heading vision measures there.
     Status aligned = mu_filter_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
     if (!aligned.isOk()) return aligned;
+  }
+  if (estimate.line_landmark_fix) {
+    const Status corrected = correctWithLineLandmarks(*odom, fix);
+    if (!corrected.isOk() && !aligning) return corrected;
+    return Status::ok();
   }
   if (estimate.degraded) {
     // The temporary reference (the last good frame) has no wall and its pose is itself an
@@ -182,6 +188,39 @@ Status RepeatPipeline::correctMuFilter(double stamp, const RepeatEstimate& estim
   // heading.
   if (!corrected.isOk() && !aligning) return corrected;
   return Status::ok();
+}
+
+Status RepeatPipeline::correctWithLineLandmarks(const Pose2D& odom, RepeatEstimate* fix) {
+  // The keyframe the localizer chose, then its neighbours ahead and behind: the filter's own
+  // association decides which one's lines are in view.
+  const Route& route = localizer_.route();
+  const int count = localizer_.keyframeCount();
+  std::string reasons;
+  Status last(StatusCode::kNoConsensus, "no keyframe with line landmarks near " + std::to_string(fix->keyframe));
+  for (const int step : {0, 1, -1}) {
+    int k = fix->keyframe + step;
+    if (localizer_.closedRoute()) k = (k + count) % count;
+    if (k < 0 || k >= count) continue;
+    const KeyframeReference& reference = localizer_.reference(k);
+    if (reference.line_landmarks.empty()) continue;
+    LineLandmarkObservation observation;
+    observation.reference_pose = reference.base_pose;
+    observation.camera_mount = route.info.camera_mount;
+    observation.lens = LineCamera{localizer_.camera().fx(), localizer_.camera().cx()};
+    observation.image_width = localizer_.camera().width();
+    observation.landmarks = reference.line_landmarks;
+    observation.reference_lines = reference.lines;
+    observation.current_lines = fix->current_lines;
+    const auto used = mu_filter_.correctWithLineLandmarks(observation, odom);
+    if (used) {
+      fix->keyframe = k;
+      fix->inliers = *used;
+      return Status::ok();
+    }
+    reasons += (reasons.empty() ? "" : "; ") + ("keyframe " + std::to_string(k) + ": " + used.status().message());
+    last = Status(used.status().code(), reasons);
+  }
+  return last;
 }
 
 std::optional<Pose2D> RepeatPipeline::predictedMuPose(double stamp) const {

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+#include <string>
 #include <vector>
 
 #include "homography_teach_repeat/mu/heading_1d.h"
@@ -254,6 +256,111 @@ TEST(HeadingAidedOdometry, KeyframeWallFromItsScenePlane) {
   floor.normal = Eigen::Vector3d(0.0, 1.0, 0.0);
   EXPECT_FALSE(muWallOf(keyframe, floor, mount, 500.0, 0).has_value());
   EXPECT_FALSE(muWallOf(keyframe, std::nullopt, mount, 500.0, 0).has_value());
+}
+
+// Line landmarks of a street in the keyframe camera frame (keyframe at the route origin, camera
+// looking along +x of the route) and the lines a robot at `truth` sees of them.
+struct StreetScene {
+  LineLandmarkObservation observation;
+  std::vector<Eigen::Vector2d> positions;
+
+  explicit StreetScene(int count, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> side(3.0, 10.0), depth(5.0, 40.0), grey(20.0, 230.0);
+    std::bernoulli_distribution left(0.5);
+    observation.lens = LineCamera{707.0, 600.0};
+    observation.image_width = 1200.0;
+    for (int i = 0; i < count; ++i) {
+      positions.emplace_back(left(rng) ? -side(rng) : side(rng), depth(rng));
+      VerticalLine line;
+      line.polarity = left(rng) ? EdgePolarity::kDarkLeft : EdgePolarity::kDarkRight;
+      line.left_brightness = grey(rng);
+      line.right_brightness = grey(rng);
+      const auto x = projectLineLandmark(PlanarPose(), positions.back(), observation.lens);
+      line.x = *x;
+      observation.reference_lines.push_back(line);
+      LineLandmark landmark;
+      landmark.line = i;
+      landmark.position = positions.back();
+      landmark.covariance = Eigen::Matrix2d::Identity() * 1e-4;
+      landmark.views = 3;
+      observation.landmarks.push_back(landmark);
+    }
+  }
+
+  void see(const Pose2D& truth, double noise_px, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, noise_px);
+    const CameraMount mount(0.0, 0.0, 0.0);
+    const PlanarPose camera = mount.baseToCamera(truth);
+    observation.current_lines.clear();
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      const auto x = projectLineLandmark(camera, positions[i], observation.lens);
+      if (!x || *x < 0.0 || *x >= observation.image_width) continue;
+      VerticalLine line = observation.reference_lines[i];
+      line.x = *x + noise(rng);
+      observation.current_lines.push_back(line);
+    }
+  }
+};
+
+TEST(HeadingAidedOdometry, LineLandmarksCorrectHeadingAndPosition) {
+  StreetScene street(40, 11);
+  // The robot is 1 m past the keyframe, 8 cm to the left, turned 1.5° left; its odometry says it
+  // went straight on.
+  const Pose2D truth(1.0, 0.08, 0.026);
+  street.see(truth, 0.5, 2);
+  HeadingAidedOdometryOptions options;
+  options.line_position_sigma_m = 0.0;
+  HeadingAidedOdometry odometry(options);
+  ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
+  const auto used = odometry.correctWithLineLandmarks(street.observation, Pose2D(1.0, 0.0, 0.0));
+  ASSERT_TRUE(used.isOk()) << used.status().toString();
+  EXPECT_GE(*used, 20);
+  const auto pose = odometry.routePose(Pose2D(1.0, 0.0, 0.0));
+  ASSERT_TRUE(pose.isOk());
+  EXPECT_NEAR(pose->x, truth.x, 0.03);
+  EXPECT_NEAR(pose->y, truth.y, 0.02);
+  EXPECT_NEAR(pose->yaw, truth.yaw, 0.002);
+  const Eigen::Vector3d error(pose->x - truth.x, pose->y - truth.y, pose->yaw - truth.yaw);
+  EXPECT_LT(error.dot(odometry.covariance().inverse() * error), 16.3);  // χ², 3 dof, 99.9 %
+  EXPECT_LT(odometry.covariance()(2, 2), options.heading_fix_variance);
+  EXPECT_DOUBLE_EQ(odometry.distanceSinceFix(), 0.0);
+}
+
+TEST(HeadingAidedOdometry, LineLandmarksDropLinesThatDoNotFit) {
+  StreetScene street(40, 5);
+  const Pose2D truth(0.8, -0.05, -0.02);
+  street.see(truth, 0.5, 3);
+  // Strays: lines that look like taught ones, a few pixels beside where those should be.
+  for (int i = 0; i < 6; ++i) {
+    VerticalLine stray = street.observation.current_lines[static_cast<std::size_t>(3 * i)];
+    stray.x += 9.0;
+    street.observation.current_lines.push_back(stray);
+  }
+  HeadingAidedOdometry odometry;
+  ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
+  ASSERT_TRUE(odometry.correctWithLineLandmarks(street.observation, Pose2D(0.8, 0.0, 0.0)).isOk());
+  const auto pose = odometry.routePose(Pose2D(0.8, 0.0, 0.0));
+  EXPECT_NEAR(pose->y, truth.y, 0.03);
+  EXPECT_NEAR(pose->yaw, truth.yaw, 0.003);
+}
+
+TEST(HeadingAidedOdometry, LineLandmarksRefuseTooFewLinesAndBadInput) {
+  StreetScene street(4, 9);
+  street.see(Pose2D(0.5, 0.0, 0.0), 0.3, 1);
+  HeadingAidedOdometry odometry;
+  EXPECT_EQ(odometry.correctWithLineLandmarks(street.observation, Pose2D()).status().code(), StatusCode::kNoConsensus);
+  ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
+  const auto few = odometry.correctWithLineLandmarks(street.observation, Pose2D(0.5, 0.0, 0.0));
+  EXPECT_EQ(few.status().code(), StatusCode::kNoConsensus);
+  EXPECT_NE(few.status().message().find("min_landmark_lines"), std::string::npos) << few.status().message();
+  LineLandmarkObservation broken = street.observation;
+  broken.landmarks[0].line = 17;  // no such reference line
+  EXPECT_EQ(odometry.correctWithLineLandmarks(broken, Pose2D(0.5, 0.0, 0.0)).status().code(), StatusCode::kInvalidInput);
+  broken = street.observation;
+  broken.reference_pose.yaw = NAN;
+  EXPECT_EQ(odometry.correctWithLineLandmarks(broken, Pose2D(0.5, 0.0, 0.0)).status().code(), StatusCode::kInvalidInput);
 }
 
 }  // namespace

@@ -99,6 +99,50 @@ TEST_F(RepeatPipelineTest, MuLoopCorrectsTheOdometryHeading) {
   EXPECT_GE(pipeline->localizer().trackedKeyframe(), 4);  // moved on from the filter's pose
 }
 
+// The same loop with the keyframe lines triangulated into landmarks when the route is loaded: the
+// filter's fixes come from every line against its own depth instead of one μ.
+TEST_F(RepeatPipelineTest, MuLoopWithLineLandmarksCorrectsTheOdometryHeading) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kMu;
+  options.localization.mu_line_landmarks = true;
+  // The test wall is dense with edges of similar grey (70-115 lines per keyframe): along a nearly
+  // straight path a line's depth is its only unknown, and most lines fit several candidates in the
+  // keyframes 0.25 m on; those are left out, 1-8 landmarks per keyframe remain.
+  options.mu_filter.min_landmark_lines = 3;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  int with_landmarks = 0;
+  for (int k = 0; k < pipeline->localizer().keyframeCount(); ++k) {
+    if (pipeline->localizer().reference(k).line_landmarks.size() >= 3) ++with_landmarks;
+  }
+  ASSERT_GE(with_landmarks, pipeline->localizer().keyframeCount() / 2);
+  constexpr double kHeadingBiasPerStep = 0.003;  // [rad] per 0.1 m
+  Pose2D odom = cameraAxesToRep103(pathCamera(0.0));
+  Pose2D previous_truth = odom;
+  int landmark_fixes = 0;
+  double odometry_error = 0.0, filter_error = 0.0;
+  for (int step = 0; step < 14; ++step) {
+    const double stamp = 200.0 + 0.1 * step;
+    const PlanarPose camera_pose = pathCamera(0.1 * step);
+    const Pose2D truth = cameraAxesToRep103(camera_pose);
+    Pose2D increment = previous_truth.inverse().compose(truth);
+    if (step > 0) increment.yaw += kHeadingBiasPerStep;
+    odom = odom.compose(increment);
+    previous_truth = truth;
+    ASSERT_TRUE(pipeline->addOdometry(stamp, odom).isOk());
+    const RepeatFrameResult result = pipeline->processFrame(stamp, wall_->imageAt(camera_pose), camera());
+    if (result.estimate && result.estimate->line_landmark_fix) ++landmark_fixes;
+    if (!result.pose) continue;
+    odometry_error = yawError(odom, truth);
+    filter_error = yawError(*result.pose, truth);
+    EXPECT_LT(filter_error, 0.8 * M_PI / 180.0) << step;
+    EXPECT_LT(std::hypot(result.pose->x - truth.x, result.pose->y - truth.y), 0.04) << step;
+  }
+  EXPECT_GE(landmark_fixes, 10);
+  EXPECT_GT(odometry_error, 0.035);
+  EXPECT_LT(filter_error, 0.3 * odometry_error);
+}
+
 // μ mode, frames without a fix: the filter carries the pose on odometry alone (its covariance
 // growing) while within mu_max_unaided_distance; 0 means never.
 TEST_F(RepeatPipelineTest, MuFramesWithoutAFixUseTheOdometryWithinTheDistanceAllowed) {

@@ -15,6 +15,10 @@
 //    of the wall changes, a heading error turns into lateral motion).
 //  - correctHeading: a heading-only fix (a reference without a known wall), variance
 //    `heading_fix_variance`.
+//  - correctWithLineLandmarks: the keyframe's lines triangulated with their own depths
+//    (line_landmarks.h, docs/math.md §4.9), each current line a bearing of the robot pose: one
+//    consensus on the heading picks the associations, one iterated update takes them all. Where
+//    the lines stand at many depths (a street) no single wall models them.
 // A μ fix must be confirmed by the previous frame's fix against the same keyframe (max_mu_step_px)
 // and is refused when its innovation exceeds `innovation_gate` standard deviations (a wrong line
 // association gave fixes 38° and 97° off in the simulator); `refused_before_reset` refusals in a
@@ -26,8 +30,12 @@
 #include <Eigen/Core>
 
 #include <optional>
+#include <vector>
 
+#include "homography_teach_repeat/features/vertical_lines.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/mu/heading_1d.h"
+#include "homography_teach_repeat/mu/line_landmarks.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/common/status.h"
 
@@ -52,6 +60,19 @@ struct HeadingAidedOdometryOptions {
   double max_confirmation_distance = 0.3;       // [m] > 0
   double reset_position_variance = 0.04;        // [m²] added after refused_before_reset ((20 cm)²)
   double reset_heading_variance = 0.03;         // [rad²] added after refused_before_reset ((10°)²)
+  // Line landmark fixes (correctWithLineLandmarks):
+  double line_sigma_px = 1.0;                   // [px] of a current line's x, > 0
+  int min_landmark_lines = 5;                   // fewer agreeing lines: no fix, >= 2
+  double line_inlier_gate = 3.0;                // [σ] a line agrees with the consensus, > 0
+  // [rad] >= 0: a rotation common to all lines of a fix that their independent noise does not
+  // model (the keyframe's taught yaw, the camera's tilt; as PlanarPoseEstimatorOptions::
+  // heading_sigma_rad, docs/math.md §3.8): its variance along ∂x/∂yaw of every line.
+  double line_heading_sigma_rad = 0.0;
+  // [m] >= 0: the same for a shift common to all lines (the keyframe's taught position relative to
+  // the neighbours its landmarks were triangulated with). Without it the fixes on KITTI 07 came
+  // out 3-15 cm off with a claimed 1-3 cm (NEES mean 44-77 in a segment; 1.4-4.0 with 0.05 m).
+  double line_position_sigma_m = 0.05;
+  double line_max_brightness_difference = 40.0; // [grey levels] teach and repeat line alike, > 0
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -66,6 +87,17 @@ struct MuObservation {
   Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
   double focal_px = 500.0;       // the μ focal length [px]
   int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
+};
+
+// The lines of a reference keyframe with their positions, and a current image's lines.
+struct LineLandmarkObservation {
+  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
+  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
+  LineCamera lens;               // focal length and principal point along x [px]
+  double image_width = 0.0;      // [px]; landmarks projecting outside [0, width) are not looked for
+  std::vector<LineLandmark> landmarks;        // in the reference camera frame
+  std::vector<VerticalLine> reference_lines;  // what landmarks[i].line indexes
+  std::vector<VerticalLine> current_lines;
 };
 
 // The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
@@ -96,6 +128,15 @@ class HeadingAidedOdometry {
   // A heading-only fix: the robot's yaw in the route frame was `route_yaw` when its odometry
   // read `odom_pose`. Same statuses (the gate applies).
   Status correctHeading(double route_yaw, const Pose2D& odom_pose);
+  // A fix from the current lines against the reference's line landmarks (docs/math.md §4.9): each
+  // landmark is projected at the predicted pose and paired with the current lines of its
+  // appearance within innovation_gate of its predicted x; the heading change most pairs agree on
+  // (within line_inlier_gate of what the position uncertainty allows each line) picks one line per
+  // landmark; an iterated EKF update takes them all. Returns the lines used. kNoConsensus: not
+  // aligned, fewer than min_landmark_lines agree, or a second heading is nearly as well supported
+  // (a row of windows); refusals in a row widen the covariance as the innovation gate's do.
+  // kInvalidInput: non-finite input, a landmark without its reference line.
+  Expected<int> correctWithLineLandmarks(const LineLandmarkObservation& observation, const Pose2D& odom_pose);
 
   // The robot pose in the route frame for the odometry reading `odom_pose`, and its (x, y, yaw)
   // covariance. kNoConsensus when not aligned, kInvalidInput on non-finite input.
@@ -118,6 +159,9 @@ class HeadingAidedOdometry {
   Status predict(const Pose2D& odom_pose);
   // Scalar EKF update; `innovation` = measured − predicted, `jacobian` = ∂predicted/∂(x, y, yaw).
   Status update(double innovation, const Eigen::RowVector3d& jacobian, double variance, const char* what);
+  // A refused fix: after refused_before_reset in a row the covariance is widened (lasting
+  // disagreement means the estimate is the wrong one). Returns whether it was widened.
+  bool countRefusal();
 
   struct PreviousMu {
     int reference_id = -1;

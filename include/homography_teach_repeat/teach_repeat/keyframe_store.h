@@ -10,6 +10,7 @@
 #include "homography_teach_repeat/features/vertical_lines.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/mu/line_landmarks.h"
 #include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -20,6 +21,7 @@ namespace homography_teach_repeat {
 struct KeyframeReference {
   ImageFeatures features;              // fast_hd/classic
   std::vector<VerticalLine> lines;     // mu
+  std::vector<LineLandmark> line_landmarks;  // mu with RepeatOptions::mu_line_landmarks
   Pose2D base_pose;                    // route frame
   // Zero for a keyframe (its pose defines the route); a temporary reference's pose is an estimate,
   // and its covariance (x, y, yaw) carries into the poses measured against it.
@@ -60,6 +62,8 @@ class KeyframeStore {
   // (transferPlane): the two estimates differ by √2 σ when both have σ, so σ = RMS difference / √2
   // over the neighbours (normal angle [rad], distance relative to the plane's), clamped to 0.5.
   void measurePlaneAgreement(const CameraMount& mount);
+  // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
+  void triangulateLines(const PinholeCamera& camera, const CameraMount& mount, const LineLandmarkOptions& options);
 
   std::vector<KeyframeReference> keyframes_;
 };

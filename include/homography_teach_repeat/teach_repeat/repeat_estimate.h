@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <vector>
 
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
@@ -12,6 +13,7 @@
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
+#include "homography_teach_repeat/mu/line_landmarks.h"
 
 namespace homography_teach_repeat {
 
@@ -62,6 +64,13 @@ struct RepeatOptions {
   //    heading shares no lines with the image, and a wrong association gave fixes 90° off).
   bool mu_skip_turn_keyframes = true;
   double mu_max_reference_angle = 0.2;
+  // mu mode: each keyframe's vertical lines triangulated with their own depths from the keyframe
+  // and its taught neighbours when the route is loaded (line_landmarks.h, docs/math.md §4.9); a
+  // keyframe with landmarks gives the filter a fix from every line (a street: lines at 2-60 m on
+  // both sides, which no single wall models), with turn keyframes too (each line's own depth holds
+  // the coupling μ cannot). A keyframe without landmarks falls back to μ.
+  bool mu_line_landmarks = false;
+  LineLandmarkOptions line_landmarks;
   // fast_hd/classic: after a frame localized against a route keyframe, up to this many following
   // frames take that frame's inlier matches on by pyramidal Lucas-Kanade optical flow (checked
   // forward and backward) instead of detecting and matching features: the keyframe pixels stay,
@@ -96,6 +105,10 @@ struct RepeatEstimate {
   PlanarPose camera_relative;  // current camera in the reference camera frame (docs/math.md §1.1)
   double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
   double mu = 0.0;                  // mu mode: h12/h22 [px]
+  // mu mode against a keyframe with line landmarks (RepeatOptions::mu_line_landmarks): no μ; the
+  // filter takes the current lines against the landmarks (RepeatPipeline).
+  bool line_landmark_fix = false;
+  std::vector<VerticalLine> current_lines;
   // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.
   // distorted) for visualisation; mu mode: the matched line x at the principal row.
   PointMatches inlier_matches;

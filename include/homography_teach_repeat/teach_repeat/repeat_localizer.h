@@ -72,6 +72,8 @@ class RepeatLocalizer {
   // mu mode: whether keyframe k was reached turning (gives no heading fix, see
   // RepeatOptions::mu_skip_turn_keyframes). The first keyframe never is: the run starts there.
   bool isTurnKeyframe(int keyframe) const;
+  // What keyframe k is localized against (its lines, landmarks, plane); k in [0, keyframeCount()).
+  const KeyframeReference& reference(int keyframe) const { return keyframes_.at(keyframe); }
   const Route& route() const { return route_; }
   const PinholeCamera& camera() const { return estimator_->context().camera; }
   const RepeatOptions& options() const { return estimator_->context().options; }

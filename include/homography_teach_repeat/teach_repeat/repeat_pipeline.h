@@ -88,7 +88,10 @@ class RepeatPipeline {
   // `odom`: the odometry at the image stamp (or why there is none).
   Status gate(const Expected<Pose2D>& odom, const RepeatEstimate& estimate, std::string* warning);
   // mu: the filter at `stamp` corrected by the estimate's μ.
-  Status correctMuFilter(double stamp, const RepeatEstimate& estimate);
+  // (`fix`: its keyframe and inliers become those of the line landmark fix taken.)
+  Status correctMuFilter(double stamp, RepeatEstimate* fix);
+  // mu, a keyframe with line landmarks: the filter's fix from the current lines.
+  Status correctWithLineLandmarks(const Pose2D& odom, RepeatEstimate* fix);
   // mu, a frame without a fix: the filter alone, within mu_max_unaided_distance.
   void addUnaidedMuPose(double stamp, RepeatFrameResult* result);
   Expected<Pose2D> unaidedMuPose(const Pose2D& odom);
