@@ -51,7 +51,7 @@ std::optional<Eigen::Vector2d> intersect(const Ray& a, const Ray& b, const LineC
   return Eigen::Vector2d(a.camera.x, a.camera.z) + st(0) * da;
 }
 
-// ∂x/∂position of the projection (docs/math.md §4.9).
+// ∂x/∂position of the projection (docs/math.md §4.8).
 Eigen::RowVector2d projectionJacobian(const PlanarPose& camera, const Eigen::Vector2d& position, const LineCamera& lens) {
   const Eigen::Vector2d local = camera.inverse().transformPoint(position);
   const double c = std::cos(camera.theta), s = std::sin(camera.theta);

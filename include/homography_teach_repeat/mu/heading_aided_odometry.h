@@ -16,7 +16,7 @@
 //  - correctHeading: a heading-only fix (a reference without a known wall), variance
 //    `heading_fix_variance`.
 //  - correctWithLineLandmarks: the keyframe's lines triangulated with their own depths
-//    (line_landmarks.h, docs/math.md §4.9), each current line a bearing of the robot pose: one
+//    (line_landmarks.h, docs/math.md §4.8), each current line a bearing of the robot pose: one
 //    consensus on the heading picks the associations, one iterated update takes them all. Where
 //    the lines stand at many depths (a street) no single wall models them.
 // A μ fix must be confirmed by the previous frame's fix against the same keyframe (max_mu_step_px)

@@ -1,4 +1,4 @@
-// Vertical lines as landmarks with their own depth (docs/math.md §4.9). μ = h12/h22 models the lines
+// Vertical lines as landmarks with their own depth (docs/math.md §4.8-4.9). μ = h12/h22 models the lines
 // of one wall; on a street the lines stand at 2-60 m on both sides, and between a keyframe and a
 // frame 1 m from it a line on a facade 5 m to the side moves 40 px that no single 1D homography
 // explains. Here each keyframe line is triangulated from the keyframe and its taught neighbours
@@ -55,7 +55,7 @@ struct LineView {
 // `camera` (keyframe camera frame). kDegenerate when it is less than 0.1 m in front of the camera.
 Expected<double> projectLineLandmark(const PlanarPose& camera, const Eigen::Vector2d& position, const LineCamera& lens);
 
-// Triangulates the keyframe's `lines` with the `others` views (docs/math.md §4.9): for each line, the
+// Triangulates the keyframe's `lines` with the `others` views (docs/math.md §4.8): for each line, the
 // lines of the same polarity and brightness in a neighbour view whose rays meet between
 // min_depth_m and max_depth_m are candidates; a candidate needs lines at its projection in further
 // views (min_views in all); a line with two such candidates that disagree is ambiguous (a row of

@@ -65,7 +65,7 @@ struct RepeatOptions {
   bool mu_skip_turn_keyframes = true;
   double mu_max_reference_angle = 0.2;
   // mu mode: each keyframe's vertical lines triangulated with their own depths from the keyframe
-  // and its taught neighbours when the route is loaded (line_landmarks.h, docs/math.md §4.9); a
+  // and its taught neighbours when the route is loaded (line_landmarks.h, docs/math.md §4.8); a
   // keyframe with landmarks gives the filter a fix from every line (a street: lines at 2-60 m on
   // both sides, which no single wall models), with turn keyframes too (each line's own depth holds
   // the coupling μ cannot). A keyframe without landmarks falls back to μ.
