@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """ctest helper: checks evaluate_sequence's JSON against floors (and that its plots were drawn).
 
-  check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M] [--plots]
+  check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M]
+                         [--max-median-heading DEG] [--plots]
 Exit 1 naming the figure that misses its floor."""
 import argparse
 import json
@@ -14,6 +15,7 @@ def main():
     parser.add_argument("json")
     parser.add_argument("--min-localized", type=float, default=0.0)
     parser.add_argument("--max-median-position", type=float, default=float("inf"))
+    parser.add_argument("--max-median-heading", type=float, default=float("inf"))
     parser.add_argument("--plots", action="store_true")
     args = parser.parse_args()
     with open(args.json) as f:
@@ -25,6 +27,9 @@ def main():
     median = summary["position_error_median_m"]
     if median is None or median > args.max_median_position:
         problems.append("median position error %s m > %.3f m" % (median, args.max_median_position))
+    heading = summary["heading_error_median_deg"]
+    if args.max_median_heading != float("inf") and (heading is None or heading > args.max_median_heading):
+        problems.append("median heading error %s deg > %.3f deg" % (heading, args.max_median_heading))
     if len(doc["frames"]) != summary["frames"] or not doc["keyframes"]:
         problems.append("frames or keyframes missing from the JSON")
     if args.plots:
@@ -32,8 +37,8 @@ def main():
         for suffix in ("_top.png", "_error.png", "_nees.png"):
             if not os.path.getsize(stem + suffix) > 0:
                 problems.append("no plot " + stem + suffix)
-    print("%d/%d frames localized, median position error %s m, NEES mean %s" %
-          (summary["localized"], summary["frames"], median, summary["nees_mean"]))
+    print("%d/%d frames localized, median position error %s m, median heading error %s deg, NEES mean %s" %
+          (summary["localized"], summary["frames"], median, heading, summary["nees_mean"]))
     for p in problems:
         print("check_sequence_json: " + p, file=sys.stderr)
     return 1 if problems else 0
