@@ -102,14 +102,20 @@ std::optional<Refined> refine(const std::vector<Ray>& rays, Eigen::Vector2d posi
   return refined;
 }
 
-// The line of `view` nearest to `x` that looks like `line`, within `tolerance` [px].
-const VerticalLine* nearestLine(const LineView& view, const VerticalLine& line, double x, double tolerance,
-                                double max_brightness_difference) {
+// Where a line is looked for in a view: near `x`, within `tolerance` [px].
+struct SearchWindow {
+  double x = 0.0;
+  double tolerance = 0.0;
+};
+
+// The line of `view` nearest to the window's x that looks like `line`, within the window.
+const VerticalLine* nearestLine(const LineView& view, const VerticalLine& line, const SearchWindow& window,
+                                const LineLandmarkOptions& options) {
   const VerticalLine* best = nullptr;
-  double best_distance = tolerance;
+  double best_distance = window.tolerance;
   for (const VerticalLine& candidate : *view.lines) {
-    const double distance = std::abs(candidate.x - x);
-    if (distance <= best_distance && lineAppearanceAgrees(line, candidate, max_brightness_difference)) {
+    const double distance = std::abs(candidate.x - window.x);
+    if (distance <= best_distance && lineAppearanceAgrees(line, candidate, options.max_brightness_difference)) {
       best = &candidate;
       best_distance = distance;
     }
@@ -182,7 +188,7 @@ Expected<std::vector<LineLandmark>> triangulateLineLandmarks(const std::vector<V
           if (v == first) continue;
           const auto x = projectLineLandmark(others[v].camera, *meeting, lens);
           if (!x) continue;
-          const VerticalLine* seen = nearestLine(others[v], line, *x, search_tolerance, options.max_brightness_difference);
+          const VerticalLine* seen = nearestLine(others[v], line, SearchWindow{*x, search_tolerance}, options);
           if (seen) rays.push_back(Ray{others[v].camera, seen->x});
         }
         if (static_cast<int>(rays.size()) >= options.min_views) verified.push_back(std::move(rays));

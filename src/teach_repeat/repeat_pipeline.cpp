@@ -160,7 +160,7 @@ Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix) {
     if (!aligned.isOk()) return aligned;
   }
   if (estimate.line_landmark_fix) {
-    const Status corrected = correctWithLineLandmarks(*odom, fix);
+    Status corrected = correctWithLineLandmarks(*odom, fix);
     if (!corrected.isOk() && !aligning) return corrected;
     return Status::ok();
   }

@@ -22,6 +22,7 @@
 #include <limits>
 
 #include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/eval/recorded_sequence.h"
 #include "homography_teach_repeat/eval/sequence_evaluation.h"
 #ifdef HTR_WITH_ROSBAG
@@ -62,17 +63,6 @@ std::vector<int> framesIn(const eval::RecordedSequence& sequence, std::pair<doub
   return frames;
 }
 
-int drawPlots(const std::string& json_path) {
-  std::vector<std::string> candidates{HTR_PLOT_SCRIPT};
-  std::error_code error;
-  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (!error) candidates.push_back((self.parent_path() / "plot_evaluation").string());
-  for (const auto& script : candidates) {
-    if (std::filesystem::exists(script)) return std::system(("'" + script + "' '" + json_path + "'").c_str());
-  }
-  std::cerr << "evaluate_sequence: plot_evaluation not found; no plots drawn\n";
-  return 1;
-}
 
 }  // namespace
 
@@ -263,6 +253,6 @@ int main(int argc, char** argv) {
   }
   std::cout << "  failures: " << s["failures"].dump() << "; time per frame median " << s["time_per_frame_median_ms"]
             << " ms\nwrote " << json_path << "\n";
-  if (args.integer("plots") != 0) drawPlots(json_path);
+  if (args.integer("plots") != 0) eval::drawPlots(json_path, "evaluate_sequence");
   return 0;
 }

@@ -1,0 +1,77 @@
+// What a taught route offers the repeat, keyframe by keyframe, before a robot is sent along it
+// (docs/route_audit.md): the features on the keyframe's plane and how well the plane is known, the
+// covariance a Fast-HD fix would have a given distance to the side of the path (the repeat's own
+// covariance model, docs/math.md §3.4-3.8, on the keyframe's plane features moved by the plane's
+// homography), the vertical lines and line landmarks the μ mode has there, and how much the
+// keyframe looks like another part of the route (aliasing). Each keyframe gets the list of its
+// weaknesses, each naming the threshold it misses. The route_info tool prints and draws it.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+namespace homography_teach_repeat {
+
+struct RouteAuditOptions {
+  // The settings the repeat will run with: its covariance terms, matching and line options.
+  RepeatOptions repeat;
+  double probe_offset_m = 0.3;  // the predicted fix: this far to the right of the keyframe [m, > 0]
+  bool aliasing = true;         // match every keyframe against every other (n² matchings)
+  int same_place_keyframes = 2;  // keyframes this many indices apart or closer are the same place
+  // A keyframe is weak for fast_hd with fewer features on its plane, a predicted fix less certain
+  // than these, or another keyframe matching at least max_alias_ratio of its neighbour's inliers;
+  // weak for mu with fewer vertical lines than min_lines.
+  int min_plane_features = 40;
+  double max_position_sigma_m = 0.05;
+  double max_heading_sigma_rad = 0.0087;  // 0.5°
+  double max_alias_ratio = 0.5;
+  // Another keyframe that matches this one is the same place seen again, not an alias, when the
+  // pose it gives for this keyframe is within these of the taught one [m, rad].
+  double alias_position_tolerance_m = 0.5;
+  double alias_heading_tolerance_rad = 0.087;
+  int min_lines = 10;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct KeyframeAudit {
+  int keyframe = 0;
+  Pose2D pose;                 // route frame
+  int features = 0;            // stored
+  bool has_plane = false;
+  double plane_distance_m = 0.0;
+  double plane_normal_sigma_rad = 0.0;  // from the neighbours' planes (0: not measured)
+  double plane_distance_sigma = 0.0;    // [fraction]
+  int plane_features = 0;               // the features the repeat matches (on the plane)
+  // (x forward, y left, yaw) of base_link for a fix probe_offset_m to the right; absent with the
+  // reason in prediction_problem.
+  std::optional<Eigen::Matrix3d> predicted_covariance;
+  std::string prediction_problem;
+  int lines = 0;
+  int line_landmarks = 0;
+  int neighbour_inliers = -1;  // against the next keyframe (the previous for the last); -1: not run
+  int alias_keyframe = -1;     // the other keyframe that matched best with a pose that is not the taught one
+  int alias_inliers = 0;
+  std::vector<std::string> fast_hd_weaknesses;
+  std::vector<std::string> mu_weaknesses;
+};
+
+struct RouteAudit {
+  std::vector<KeyframeAudit> keyframes;
+  int weak_for_fast_hd = 0;
+  int weak_for_mu = 0;
+  std::vector<std::string> notes;  // route-wide (e.g. no planes at all)
+};
+
+// kInvalidInput for invalid options, a route without keyframes, or a corrupt keyframe file.
+Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options);
+
+}  // namespace homography_teach_repeat

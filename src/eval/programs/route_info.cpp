@@ -1,0 +1,144 @@
+// route_info: the audit of a taught route (teach_repeat/route_audit.h, docs/route_audit.md). Prints
+// one line per keyframe (what fast_hd and mu have there, the predicted fix, aliasing, weaknesses),
+// writes OUT/route_audit.json and draws OUT/route_audit.png (top view coloured by the predicted
+// position uncertainty, weak keyframes marked; per-keyframe figures along the route).
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/eval/plots.h"
+#include "homography_teach_repeat/teach_repeat/route_audit.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+nlohmann::json toJson(const KeyframeAudit& a) {
+  nlohmann::json k = {{"keyframe", a.keyframe},
+                      {"pose", {a.pose.x, a.pose.y, a.pose.yaw}},
+                      {"features", a.features},
+                      {"has_plane", a.has_plane},
+                      {"plane_features", a.plane_features},
+                      {"lines", a.lines},
+                      {"line_landmarks", a.line_landmarks},
+                      {"neighbour_inliers", a.neighbour_inliers},
+                      {"alias_keyframe", a.alias_keyframe},
+                      {"alias_inliers", a.alias_inliers},
+                      {"fast_hd_weaknesses", a.fast_hd_weaknesses},
+                      {"mu_weaknesses", a.mu_weaknesses}};
+  if (a.has_plane) {
+    k["plane_distance_m"] = a.plane_distance_m;
+    k["plane_normal_sigma_rad"] = a.plane_normal_sigma_rad;
+    k["plane_distance_sigma"] = a.plane_distance_sigma;
+  }
+  if (a.predicted_covariance) {
+    const Eigen::Matrix3d& c = *a.predicted_covariance;
+    k["predicted_sigma"] = {{"along_m", std::sqrt(c(0, 0))}, {"across_m", std::sqrt(c(1, 1))},
+                            {"heading_rad", std::sqrt(c(2, 2))}};
+    k["predicted_covariance"] = std::vector<double>(c.data(), c.data() + 9);
+  } else {
+    k["predicted_sigma"] = nullptr;
+    k["prediction_problem"] = a.prediction_problem;
+  }
+  return k;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Arguments args(
+      "route_info",
+      {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
+       {"heading-sigma", "0"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}},
+      "--route DIR --out DIR\n"
+      "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
+      "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
+      "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
+      "  [--heading-sigma RAD] (the repeat's covariance terms, as repeat_node's parameters)\n"
+      "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
+      "  [--min-lines N] (what makes a keyframe weak)\n"
+      "  [--plots 0|1]");
+  args.parse(argc, argv);
+  if (args.text("route").empty() || args.text("out").empty()) args.fail("--route DIR and --out DIR are required");
+  RouteAuditOptions options;
+  options.probe_offset_m = args.number("offset");
+  options.aliasing = args.integer("aliasing") != 0;
+  options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+  options.repeat.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
+  options.repeat.pose.plane_distance_sigma = args.number("plane-distance-sigma");
+  options.repeat.pose.tilt_sigma_rad = args.number("tilt-sigma");
+  options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
+  options.min_plane_features = args.integer("min-plane-features");
+  options.max_position_sigma_m = args.number("max-position-sigma");
+  options.max_heading_sigma_rad = args.number("max-heading-sigma");
+  options.max_alias_ratio = args.number("max-alias-ratio");
+  options.min_lines = args.integer("min-lines");
+
+  const auto route = loadRoute(args.text("route"));
+  if (!route) {
+    std::cerr << "route_info: " << route.status().toString() << "\n";
+    return 1;
+  }
+  const auto audit = auditRoute(*route, options);
+  if (!audit) {
+    std::cerr << "route_info: " << audit.status().toString() << "\n";
+    return 1;
+  }
+  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
+              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "weak");
+  for (const KeyframeAudit& a : audit->keyframes) {
+    double position = NAN, heading = NAN;
+    if (a.predicted_covariance) {
+      position = std::sqrt(std::max((*a.predicted_covariance)(0, 0), (*a.predicted_covariance)(1, 1)));
+      heading = std::sqrt((*a.predicted_covariance)(2, 2)) * 180.0 / M_PI;
+    }
+    const std::string alias = a.alias_keyframe >= 0 ? std::to_string(a.alias_inliers) + "@" + std::to_string(a.alias_keyframe) : "-";
+    std::string weak;
+    for (const auto& w : a.fast_hd_weaknesses) weak += "fast_hd: " + w + "; ";
+    for (const auto& w : a.mu_weaknesses) weak += "mu: " + w + "; ";
+    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f  %s\n", a.keyframe, a.pose.x, a.pose.y,
+                a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
+                a.has_plane ? a.plane_distance_m : NAN, weak.c_str());
+  }
+  for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
+  std::printf("%d keyframes; weak for fast_hd: %d, for mu: %d\n", static_cast<int>(audit->keyframes.size()),
+              audit->weak_for_fast_hd, audit->weak_for_mu);
+
+  nlohmann::json document;
+  document["kind"] = "route_audit";
+  document["route"] = route->directory;
+  document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
+                       {"pixel_sigma", options.repeat.pose.pixel_sigma_px},
+                       {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
+                       {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
+                       {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
+                       {"heading_sigma", options.repeat.pose.heading_sigma_rad},
+                       {"min_plane_features", options.min_plane_features},
+                       {"max_position_sigma_m", options.max_position_sigma_m},
+                       {"max_heading_sigma_rad", options.max_heading_sigma_rad},
+                       {"max_alias_ratio", options.max_alias_ratio}, {"min_lines", options.min_lines}};
+  document["summary"] = {{"keyframes", audit->keyframes.size()}, {"weak_for_fast_hd", audit->weak_for_fast_hd},
+                         {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
+  for (const KeyframeAudit& a : audit->keyframes) document["keyframes"].push_back(toJson(a));
+  const std::string out = args.text("out");
+  std::error_code error;
+  std::filesystem::create_directories(out, error);
+  const std::string json_path = out + "/route_audit.json";
+  std::ofstream file(json_path);
+  file << std::setw(1) << document << "\n";
+  file.close();
+  if (!file) {
+    std::cerr << "route_info: cannot write " << json_path << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << json_path << "\n";
+  if (args.integer("plots") != 0 && eval::drawPlots(json_path, "route_info") != 0) return 1;
+  return 0;
+}

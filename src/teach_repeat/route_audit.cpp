@@ -1,0 +1,241 @@
+#include "homography_teach_repeat/teach_repeat/route_audit.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+#include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+constexpr double kDegreesPerRadian = 180.0 / M_PI;
+
+std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
+  char text[240];
+  std::snprintf(text, sizeof(text), pattern, a, b, c, d);
+  return text;
+}
+
+// The covariance of a Fast-HD fix from the keyframe's plane features seen by a camera
+// `offset` to the right (exact matches: the covariance is the model's, not a sample's).
+Expected<Eigen::Matrix3d> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
+                                     const CameraMount& mount, const RouteAuditOptions& options) {
+  const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
+  const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
+  PointMatches matches;
+  for (const cv::KeyPoint& keypoint : reference.features.keypoints) {
+    const cv::Point2d undistorted = camera.undistortPixel(cv::Point2d(keypoint.pt.x, keypoint.pt.y));
+    const Eigen::Vector3d moved = H * Eigen::Vector3d(undistorted.x, undistorted.y, 1.0);
+    if (!(moved.z() > 0.0)) continue;
+    const Eigen::Vector2d current = moved.hnormalized();
+    if (!camera.isInside(cv::Point2d(current.x(), current.y()))) continue;
+    matches.push_back(PointMatch{Eigen::Vector2d(undistorted.x, undistorted.y), current});
+  }
+  PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
+  pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
+  pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);
+  const auto estimate = estimatePlanarPoseFromInliers(matches, camera, *reference.plane, pose_options);
+  if (!estimate) return estimate.status();
+  const Eigen::Matrix3d J = mount.cameraToBaseJacobian(estimate->pose);
+  const Eigen::Matrix3d base = J * estimate->covariance * J.transpose();
+  return Eigen::Matrix3d(0.5 * (base + base.transpose()));
+}
+
+// Keyframe `current` localized against keyframe `reference` as the repeat would: the robust
+// homography's inliers and, where the reference has a plane, the base pose it gives.
+struct Relocalization {
+  int inliers = 0;
+  std::optional<Pose2D> relative;  // current's base in reference's base frame
+};
+
+Relocalization relocalize(const KeyframeReference& reference, const ImageFeatures& current, const PinholeCamera& camera,
+                          const CameraMount& mount, const RepeatOptions& repeat) {
+  Relocalization result;
+  const auto matches = matchFeatures(reference.features, current, repeat.matching);
+  if (!matches || matches->size() < 4) return result;
+  const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
+  if (reference.plane) {
+    const auto pose = estimatePlanarPose(points, camera, *reference.plane, repeat.pose);
+    if (pose) {
+      result.inliers = static_cast<int>(pose->inliers.size());
+      result.relative = mount.cameraToBase(pose->pose);
+    }
+    return result;
+  }
+  const auto homography = estimateHomographyRobust(points, repeat.pose.robust);
+  if (homography) result.inliers = static_cast<int>(homography->inliers.size());
+  return result;
+}
+
+}  // namespace
+
+void RouteAuditOptions::validate() const {
+  repeat.validate();
+  if (!(probe_offset_m > 0.0) || !std::isfinite(probe_offset_m)) {
+    throw std::invalid_argument("route audit: probe_offset_m must be finite and > 0");
+  }
+  if (same_place_keyframes < 1) throw std::invalid_argument("route audit: same_place_keyframes must be >= 1");
+  if (min_plane_features < 0 || min_lines < 0) {
+    throw std::invalid_argument("route audit: min_plane_features and min_lines must be >= 0");
+  }
+  for (const double value : {max_position_sigma_m, max_heading_sigma_rad, max_alias_ratio, alias_position_tolerance_m,
+                             alias_heading_tolerance_rad}) {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      throw std::invalid_argument(
+          "route audit: max_position_sigma_m, max_heading_sigma_rad, max_alias_ratio and the alias tolerances must be "
+          "finite and > 0");
+    }
+  }
+}
+
+Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options) {
+  try {
+    options.validate();
+  } catch (const std::invalid_argument& e) {
+    return Status(StatusCode::kInvalidInput, e.what());
+  }
+  if (route.keyframes.empty()) return Status(StatusCode::kInvalidInput, "route '" + route.directory + "' has no keyframe");
+  const PinholeCamera camera(route.info.camera);
+  const Pose2D& m = route.info.camera_mount;
+  const CameraMount mount(m.x, m.y, m.yaw);
+  const int n = static_cast<int>(route.keyframes.size());
+
+  // What the μ mode has: the lines and their landmarks.
+  RepeatOptions lines_options = options.repeat;
+  lines_options.mode = RepeatMode::kMu;
+  lines_options.mu_line_landmarks = true;
+  auto lines = KeyframeStore::load(route, lines_options);
+  if (!lines) return lines.status();
+  // What fast_hd has: the features on each plane with the plane's own uncertainty; with a keyframe
+  // without a plane the store refuses the route, so each keyframe's stored features instead.
+  RepeatOptions points_options = options.repeat;
+  points_options.mode = RepeatMode::kFastHd;
+  points_options.plane_sigma_from_neighbours = true;
+  RouteAudit audit;
+  bool every_plane = true;
+  for (const RouteKeyframe& keyframe : route.keyframes) every_plane = every_plane && keyframe.plane.has_value();
+  std::vector<KeyframeReference> references;
+  if (every_plane) {
+    auto store = KeyframeStore::load(route, points_options);
+    if (!store) return store.status();
+    for (int k = 0; k < n; ++k) references.push_back(store->at(k));
+  } else {
+    audit.notes.push_back("not every keyframe has a plane: features are not restricted to the planes and "
+                          "the planes' own uncertainty is not measured");
+    for (int k = 0; k < n; ++k) {
+      KeyframeReference reference;
+      auto features = loadKeyframeFeatures(route, static_cast<std::size_t>(k));
+      if (!features) return features.status();
+      reference.features = std::move(*features);
+      reference.plane = route.keyframes[static_cast<std::size_t>(k)].plane;
+      reference.base_pose = route.keyframes[static_cast<std::size_t>(k)].pose;
+      references.push_back(std::move(reference));
+    }
+  }
+
+  for (int k = 0; k < n; ++k) {
+    const KeyframeReference& reference = references[static_cast<std::size_t>(k)];
+    KeyframeAudit a;
+    a.keyframe = k;
+    a.pose = route.keyframes[static_cast<std::size_t>(k)].pose;
+    auto stored = loadKeyframeFeatures(route, static_cast<std::size_t>(k));
+    if (!stored) return stored.status();
+    a.features = static_cast<int>(stored->keypoints.size());
+    a.has_plane = reference.plane.has_value();
+    a.plane_features = a.has_plane ? static_cast<int>(reference.features.keypoints.size()) : 0;
+    a.lines = static_cast<int>(lines->at(k).lines.size());
+    a.line_landmarks = static_cast<int>(lines->at(k).line_landmarks.size());
+    if (a.has_plane) {
+      a.plane_distance_m = reference.plane->distance;
+      a.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
+      a.plane_distance_sigma = reference.plane_distance_sigma;
+      const auto predicted = predictFix(reference, camera, mount, options);
+      if (predicted) {
+        a.predicted_covariance = *predicted;
+      } else {
+        a.prediction_problem = predicted.status().toString();
+      }
+    } else {
+      a.prediction_problem = "no plane";
+    }
+    if (!a.has_plane) {
+      a.fast_hd_weaknesses.push_back("no plane: fast_hd cannot localize here (the odometry, or mu, must carry the robot)");
+    } else {
+      if (a.plane_features < options.min_plane_features) {
+        a.fast_hd_weaknesses.push_back(format("%.0f features on its plane (min_plane_features %.0f)", a.plane_features,
+                                              options.min_plane_features));
+      }
+      if (!a.predicted_covariance) {
+        a.fast_hd_weaknesses.push_back("no fix predicted " + format("%.2f m", options.probe_offset_m) +
+                                       " to the side: " + a.prediction_problem);
+      } else {
+        const Eigen::Matrix3d& c = *a.predicted_covariance;
+        const double position = std::sqrt(std::max(c(0, 0), c(1, 1)));
+        const double heading = std::sqrt(c(2, 2));
+        if (position > options.max_position_sigma_m || heading > options.max_heading_sigma_rad) {
+          a.fast_hd_weaknesses.push_back(
+              format("a fix %.2f m to the side would be known to %.3f m / %.2f deg (max %.3f m", options.probe_offset_m,
+                     position, heading * kDegreesPerRadian, options.max_position_sigma_m) +
+              format(" / %.2f deg)", options.max_heading_sigma_rad * kDegreesPerRadian));
+        }
+      }
+    }
+    if (a.lines < options.min_lines) {
+      a.mu_weaknesses.push_back(format("%.0f vertical lines (min_lines %.0f): mu has too few to match here", a.lines,
+                                       options.min_lines));
+    }
+    audit.keyframes.push_back(std::move(a));
+  }
+
+  if (options.aliasing && n >= 2) {
+    // Another keyframe is an alias of this one when it matches and the pose it gives for this one
+    // is not where the teach run put it: the repeat could take that pose. One that matches and
+    // agrees (the same facades seen from further along a street) is the same place seen again.
+    for (int k = 0; k < n; ++k) {
+      KeyframeAudit& a = audit.keyframes[static_cast<std::size_t>(k)];
+      const int neighbour = k + 1 < n ? k + 1 : k - 1;
+      const ImageFeatures& mine = references[static_cast<std::size_t>(k)].features;
+      a.neighbour_inliers = relocalize(references[static_cast<std::size_t>(neighbour)], mine, camera, mount, options.repeat).inliers;
+      for (int j = 0; j < n; ++j) {
+        if (std::abs(j - k) <= options.same_place_keyframes) continue;
+        const Relocalization other = relocalize(references[static_cast<std::size_t>(j)], mine, camera, mount, options.repeat);
+        if (other.inliers < options.repeat.min_inliers || other.inliers <= a.alias_inliers) continue;
+        if (other.relative) {
+          const Pose2D taught = route.keyframes[static_cast<std::size_t>(j)].pose.inverse().compose(
+              route.keyframes[static_cast<std::size_t>(k)].pose);
+          const Pose2D& found = *other.relative;
+          if (std::hypot(found.x - taught.x, found.y - taught.y) <= options.alias_position_tolerance_m &&
+              std::abs(wrapToPi(found.yaw - taught.yaw)) <= options.alias_heading_tolerance_rad) {
+            continue;
+          }
+        }
+        a.alias_inliers = other.inliers;
+        a.alias_keyframe = j;
+      }
+      if (a.alias_keyframe >= 0 && a.alias_inliers >= options.max_alias_ratio * std::max(a.neighbour_inliers, 1)) {
+        a.fast_hd_weaknesses.push_back(format("looks like keyframe %.0f (%.0f inliers against %.0f with its neighbour, "
+                                              "a pose that is not the taught one)",
+                                              a.alias_keyframe, a.alias_inliers, a.neighbour_inliers));
+      }
+    }
+  }
+  for (const KeyframeAudit& a : audit.keyframes) {
+    if (!a.fast_hd_weaknesses.empty()) ++audit.weak_for_fast_hd;
+    if (!a.mu_weaknesses.empty()) ++audit.weak_for_mu;
+  }
+  if (!every_plane) {
+    bool any_plane = false;
+    for (const KeyframeAudit& a : audit.keyframes) any_plane = any_plane || a.has_plane;
+    if (!any_plane) audit.notes.push_back("no keyframe has a plane: fast_hd cannot repeat this route, use mu");
+  }
+  return audit;
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,92 @@
+// The route audit on the synthetic wall route: what it predicts, and that it names what is missing.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "homography_teach_repeat/teach_repeat/route_audit.h"
+#include "support/synthetic_route_test.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+class RouteAuditTest : public test_support::SyntheticRouteTest {};
+
+double positionSigma(const KeyframeAudit& a) {
+  return std::sqrt(std::max((*a.predicted_covariance)(0, 0), (*a.predicted_covariance)(1, 1)));
+}
+
+}  // namespace
+
+TEST_F(RouteAuditTest, AWellTexturedWallGivesEveryKeyframeAPredictedFixAndNoAlias) {
+  RouteAuditOptions options;
+  const auto audit = auditRoute(route(), options);
+  ASSERT_TRUE(audit.isOk()) << audit.status().toString();
+  ASSERT_EQ(audit->keyframes.size(), route().keyframes.size());
+  for (const KeyframeAudit& a : audit->keyframes) {
+    EXPECT_TRUE(a.has_plane);
+    EXPECT_GT(a.features, 0);
+    EXPECT_GT(a.plane_features, options.min_plane_features) << a.keyframe;
+    EXPECT_GT(a.lines, 0);
+    ASSERT_TRUE(a.predicted_covariance) << a.keyframe << ": " << a.prediction_problem;
+    // Hundreds of exact wall features at 0.5 px: millimetres and hundredths of a degree.
+    EXPECT_GT(positionSigma(a), 0.0);
+    EXPECT_LT(positionSigma(a), 0.02) << a.keyframe;
+    EXPECT_LT(std::sqrt((*a.predicted_covariance)(2, 2)), 0.005) << a.keyframe;
+    EXPECT_GT(a.neighbour_inliers, options.repeat.min_inliers);
+    // Keyframes further along the same wall match it, but give the pose the teach run had.
+    EXPECT_EQ(a.alias_keyframe, -1) << a.keyframe << " looks like " << a.alias_keyframe;
+    EXPECT_TRUE(a.fast_hd_weaknesses.empty()) << a.keyframe << ": " << a.fast_hd_weaknesses.front();
+  }
+  EXPECT_EQ(audit->weak_for_fast_hd, 0);
+}
+
+// The prediction is the repeat's own covariance model: twice the pixel noise, twice the sigma.
+TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.repeat.pose.refine = false;  // the closed form's covariance is linear in the pixel sigma
+  const auto once = auditRoute(route(), options);
+  options.repeat.pose.pixel_sigma_px *= 2.0;
+  const auto twice = auditRoute(route(), options);
+  ASSERT_TRUE(once.isOk() && twice.isOk());
+  for (std::size_t k = 0; k < once->keyframes.size(); ++k) {
+    ASSERT_TRUE(once->keyframes[k].predicted_covariance && twice->keyframes[k].predicted_covariance);
+    EXPECT_NEAR(positionSigma(twice->keyframes[k]) / positionSigma(once->keyframes[k]), 2.0, 0.05) << k;
+  }
+}
+
+TEST_F(RouteAuditTest, AKeyframeWithoutAPlaneAndTooFewLinesIsNamed) {
+  Route without = route();
+  without.keyframes[2].plane.reset();
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.min_lines = 100000;  // no keyframe has that many: every one is weak for mu
+  const auto audit = auditRoute(without, options);
+  ASSERT_TRUE(audit.isOk()) << audit.status().toString();
+  const KeyframeAudit& planeless = audit->keyframes[2];
+  EXPECT_FALSE(planeless.has_plane);
+  EXPECT_FALSE(planeless.predicted_covariance);
+  ASSERT_FALSE(planeless.fast_hd_weaknesses.empty());
+  EXPECT_NE(planeless.fast_hd_weaknesses.front().find("no plane"), std::string::npos);
+  EXPECT_EQ(audit->weak_for_fast_hd, 1);
+  EXPECT_EQ(audit->weak_for_mu, static_cast<int>(audit->keyframes.size()));
+  EXPECT_NE(audit->keyframes[0].mu_weaknesses.front().find("min_lines"), std::string::npos);
+  ASSERT_FALSE(audit->notes.empty());
+  EXPECT_NE(audit->notes.front().find("not every keyframe has a plane"), std::string::npos);
+}
+
+TEST_F(RouteAuditTest, BadOptionsAndAnEmptyRouteAreRefused) {
+  RouteAuditOptions options;
+  options.probe_offset_m = 0.0;
+  const auto bad = auditRoute(route(), options);
+  EXPECT_EQ(bad.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(bad.status().message().find("probe_offset_m"), std::string::npos);
+  options = RouteAuditOptions();
+  options.max_alias_ratio = NAN;
+  EXPECT_EQ(auditRoute(route(), options).status().code(), StatusCode::kInvalidInput);
+  Route empty = route();
+  empty.keyframes.clear();
+  EXPECT_EQ(auditRoute(empty, RouteAuditOptions()).status().code(), StatusCode::kInvalidInput);
+}
