@@ -26,6 +26,24 @@ void requirePositive(double value, const char* name) {
   }
 }
 
+// ∂f/∂(x, y, yaw) of a scalar function of the robot pose by central differences (1e-5 m, 1e-6 rad):
+// the measurement models are smooth and six evaluations cost microseconds.
+template <typename Measurement>
+Expected<Eigen::RowVector3d> poseJacobian(const Pose2D& at, const Measurement& measure) {
+  Eigen::RowVector3d jacobian;
+  const double steps[3] = {1e-5, 1e-5, 1e-6};
+  for (int i = 0; i < 3; ++i) {
+    Pose2D plus = at, minus = at;
+    (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
+    (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
+    const Expected<double> value_plus = measure(plus), value_minus = measure(minus);
+    if (!value_plus) return value_plus.status();
+    if (!value_minus) return value_minus.status();
+    jacobian(i) = (*value_plus - *value_minus) / (2.0 * steps[i]);
+  }
+  return jacobian;
+}
+
 // μ a camera at base pose `base` (route frame) measures against the observation's reference.
 Expected<double> muAt(const MuObservation& observation, const Pose2D& base) {
   const auto H = wallHomography1dAt(observation, base);
@@ -197,19 +215,10 @@ Status HeadingAidedOdometry::correctWithMu(const MuObservation& observation, con
                   step_error, options_.max_mu_step_px);
     return Status(StatusCode::kNoConsensus, message);
   }
-  // ∂μ/∂(x, y, yaw) by central differences (only for a confirmed fix): μ is smooth and six
-  // evaluations cost microseconds.
-  Eigen::RowVector3d jacobian;
-  const double steps[3] = {1e-5, 1e-5, 1e-6};
-  for (int i = 0; i < 3; ++i) {
-    Pose2D plus = estimate_, minus = estimate_;
-    (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
-    (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
-    const auto mu_plus = muAt(observation, plus), mu_minus = muAt(observation, minus);
-    if (!mu_plus || !mu_minus) return mu_plus ? mu_minus.status() : mu_plus.status();
-    jacobian(i) = (*mu_plus - *mu_minus) / (2.0 * steps[i]);
-  }
-  return update(observation.mu - *predicted, jacobian, std::max(observation.variance, options_.min_mu_variance),
+  // ∂μ/∂(x, y, yaw) (only for a confirmed fix).
+  const auto jacobian = poseJacobian(estimate_, [&](const Pose2D& pose) { return muAt(observation, pose); });
+  if (!jacobian) return jacobian.status();
+  return update(observation.mu - *predicted, *jacobian, std::max(observation.variance, options_.min_mu_variance),
                 "mu fix");
 }
 
@@ -245,15 +254,9 @@ class LineLandmarkModel {
     ProjectedLandmark p;
     p.landmark = index;
     p.x = *x;
-    const double steps[3] = {1e-5, 1e-5, 1e-6};
-    for (int i = 0; i < 3; ++i) {
-      Pose2D plus = base, minus = base;
-      (i == 0 ? plus.x : i == 1 ? plus.y : plus.yaw) += steps[i];
-      (i == 0 ? minus.x : i == 1 ? minus.y : minus.yaw) -= steps[i];
-      const auto x_plus = project(landmark, plus), x_minus = project(landmark, minus);
-      if (!x_plus || !x_minus) return std::nullopt;
-      p.jacobian(i) = (*x_plus - *x_minus) / (2.0 * steps[i]);
-    }
+    const auto jacobian = poseJacobian(base, [&](const Pose2D& pose) { return project(landmark, pose); });
+    if (!jacobian) return std::nullopt;
+    p.jacobian = *jacobian;
     Eigen::RowVector2d landmark_jacobian;
     for (int i = 0; i < 2; ++i) {
       const double step = 1e-6 * std::max(1.0, landmark.position.norm());

@@ -18,6 +18,25 @@ class RepeatPipelineTest : public test_support::SyntheticRouteTest {
   static PinholeCamera camera() { return PinholeCamera(test_support::syntheticCalibration()); }
   // The camera on the taught path at arc length s [m], `lateral` [m] to its right.
   static PlanarPose pathCamera(double s, double lateral = 0.0) { return PlanarPose(0.08 * s + lateral, s, 0.04 * s); }
+  // 14 frames 0.1 m apart along the taught path with odometry whose heading drifts by 0.003 rad
+  // per frame (0.03 rad/m); `on_frame(step, truth, odom, result)` sees each frame's outcome.
+  template <typename OnFrame>
+  static void driveWithBiasedOdometry(RepeatPipeline& pipeline, const OnFrame& on_frame) {
+    constexpr double kHeadingBiasPerStep = 0.003;  // [rad] per 0.1 m
+    Pose2D odom = cameraAxesToRep103(pathCamera(0.0));
+    Pose2D previous_truth = odom;
+    for (int step = 0; step < 14; ++step) {
+      const double stamp = 200.0 + 0.1 * step;
+      const PlanarPose camera_pose = pathCamera(0.1 * step);
+      const Pose2D truth = cameraAxesToRep103(camera_pose);
+      Pose2D increment = previous_truth.inverse().compose(truth);
+      if (step > 0) increment.yaw += kHeadingBiasPerStep;
+      odom = odom.compose(increment);
+      previous_truth = truth;
+      ASSERT_TRUE(pipeline.addOdometry(stamp, odom).isOk());
+      on_frame(step, truth, odom, pipeline.processFrame(stamp, wall_->imageAt(camera_pose), camera()));
+    }
+  }
 };
 
 double yawError(const Pose2D& a, const Pose2D& b) { return std::abs(wrapToPi(a.yaw - b.yaw)); }
@@ -66,23 +85,11 @@ TEST_F(RepeatPipelineTest, MuLoopCorrectsTheOdometryHeading) {
   options.localization.mode = RepeatMode::kMu;
   auto pipeline = RepeatPipeline::create(route(), options);
   ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
-  constexpr double kHeadingBiasPerStep = 0.003;  // [rad] per 0.1 m
-  Pose2D odom = cameraAxesToRep103(pathCamera(0.0));
-  Pose2D previous_truth = odom;
   int fixes = 0, poses = 0;
   double odometry_error = 0.0, filter_error = 0.0;
-  for (int step = 0; step < 14; ++step) {
-    const double stamp = 200.0 + 0.1 * step;
-    const PlanarPose camera_pose = pathCamera(0.1 * step);
-    const Pose2D truth = cameraAxesToRep103(camera_pose);
-    Pose2D increment = previous_truth.inverse().compose(truth);
-    if (step > 0) increment.yaw += kHeadingBiasPerStep;
-    odom = odom.compose(increment);
-    previous_truth = truth;
-    ASSERT_TRUE(pipeline->addOdometry(stamp, odom).isOk());
-    const RepeatFrameResult result = pipeline->processFrame(stamp, wall_->imageAt(camera_pose), camera());
+  driveWithBiasedOdometry(*pipeline, [&](int step, const Pose2D& truth, const Pose2D& odom, const RepeatFrameResult& result) {
     if (result.estimate) ++fixes;
-    if (!result.pose) continue;
+    if (!result.pose) return;
     ++poses;
     ASSERT_TRUE(result.covariance);
     EXPECT_GT(result.covariance->trace(), 0.0);
@@ -91,7 +98,7 @@ TEST_F(RepeatPipelineTest, MuLoopCorrectsTheOdometryHeading) {
     // Measured: at most 0.57° and 2.3 cm over the run (the odometry: 2.2° at the end).
     EXPECT_LT(filter_error, 0.8 * M_PI / 180.0) << step;
     EXPECT_LT(std::hypot(result.pose->x - truth.x, result.pose->y - truth.y), 0.04) << step;
-  }
+  });
   EXPECT_GE(fixes, 10);
   EXPECT_GE(poses, 13);
   EXPECT_GT(odometry_error, 0.035);  // 0.039 rad: the bias the filter works against
@@ -116,28 +123,16 @@ TEST_F(RepeatPipelineTest, MuLoopWithLineLandmarksCorrectsTheOdometryHeading) {
     if (pipeline->localizer().reference(k).line_landmarks.size() >= 3) ++with_landmarks;
   }
   ASSERT_GE(with_landmarks, pipeline->localizer().keyframeCount() / 2);
-  constexpr double kHeadingBiasPerStep = 0.003;  // [rad] per 0.1 m
-  Pose2D odom = cameraAxesToRep103(pathCamera(0.0));
-  Pose2D previous_truth = odom;
   int landmark_fixes = 0;
   double odometry_error = 0.0, filter_error = 0.0;
-  for (int step = 0; step < 14; ++step) {
-    const double stamp = 200.0 + 0.1 * step;
-    const PlanarPose camera_pose = pathCamera(0.1 * step);
-    const Pose2D truth = cameraAxesToRep103(camera_pose);
-    Pose2D increment = previous_truth.inverse().compose(truth);
-    if (step > 0) increment.yaw += kHeadingBiasPerStep;
-    odom = odom.compose(increment);
-    previous_truth = truth;
-    ASSERT_TRUE(pipeline->addOdometry(stamp, odom).isOk());
-    const RepeatFrameResult result = pipeline->processFrame(stamp, wall_->imageAt(camera_pose), camera());
+  driveWithBiasedOdometry(*pipeline, [&](int step, const Pose2D& truth, const Pose2D& odom, const RepeatFrameResult& result) {
     if (result.estimate && result.estimate->line_landmark_fix) ++landmark_fixes;
-    if (!result.pose) continue;
+    if (!result.pose) return;
     odometry_error = yawError(odom, truth);
     filter_error = yawError(*result.pose, truth);
     EXPECT_LT(filter_error, 0.8 * M_PI / 180.0) << step;
     EXPECT_LT(std::hypot(result.pose->x - truth.x, result.pose->y - truth.y), 0.04) << step;
-  }
+  });
   EXPECT_GE(landmark_fixes, 10);
   EXPECT_GT(odometry_error, 0.035);
   EXPECT_LT(filter_error, 0.3 * odometry_error);
