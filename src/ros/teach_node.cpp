@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/ros/teach_node.h"
 
+#include <cstdio>
 #include <stdexcept>
 
 #include "homography_teach_repeat/TeachStatus.h"
@@ -42,6 +43,17 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
   return options;
 }
 
+// The thresholds of the teach node's warnings (the rest of the audit keeps its defaults).
+RouteAuditOptions readAuditOptions(const ros::NodeHandle& nh) {
+  RouteAuditOptions audit;
+  readParameters(nh, [&] {
+    audit.min_plane_features = readParameter(nh, "audit_min_features", audit.min_plane_features);
+    audit.min_lines = readParameter(nh, "audit_min_lines", audit.min_lines);
+    audit.validate();
+  });
+  return audit;
+}
+
 }  // namespace
 
 TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
@@ -50,6 +62,7 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
       options_(readTeachOptions(private_nh)),
       base_frame_(readParameter<std::string>(private_nh, "base_frame", "base_link")),
       max_camera_tilt_rad_(readParameter(private_nh, "max_camera_tilt", 0.05)),
+      audit_(readAuditOptions(private_nh)),
       odometry_(readParameter(private_nh, "odometry_buffer_seconds", 5.0),
                 readParameter(private_nh, "max_odometry_gap", 0.5)),
       tf_listener_(tf_buffer_),
@@ -153,7 +166,22 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
     const auto& k = session_->route().keyframes.back();
     ROS_INFO("teach_node: keyframe %d at (%.2f, %.2f, %.1f deg), t = %.3f", k.index, k.pose.x,
              k.pose.y, k.pose.yaw * 180.0 / M_PI, stamp);
-    publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored");
+    // A keyframe the repeat will find little in: said now, while the driver can still slow down,
+    // turn the camera towards texture or re-drive the stretch (docs/route_audit.md).
+    std::string weak;
+    for (const auto& w : storedKeyframeWeaknesses(session_->lastStored().features, session_->lastStored().lines, audit_)) {
+      weak += (weak.empty() ? "" : "; ") + w;
+    }
+    if (weak.empty()) {
+      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored");
+    } else {
+      ++weak_keyframes_;
+      char where[96];
+      std::snprintf(where, sizeof(where), "keyframe %d at (%.2f, %.2f) is weak: ", k.index, k.pose.x, k.pose.y);
+      last_weak_ = where + weak;
+      ROS_WARN("teach_node: %s (slow down, face more texture or re-drive this stretch)", last_weak_.c_str());
+      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored; " + last_weak_);
+    }
   }
 }
 
@@ -174,6 +202,21 @@ Status TeachNode::finish(std::string* summary) {
   *summary = std::to_string(report->keyframes) + " keyframes, " + std::to_string(report->planes) +
              " with a plane";
   for (const auto& m : report->messages) *summary += "; " + m;
+  // The audit of the finished route (without the n² aliasing check: route_info has it).
+  RouteAuditOptions audit = audit_;
+  audit.aliasing = false;
+  const auto audited = auditRoute(session_->route(), audit);
+  if (!audited) {
+    ROS_WARN("teach_node: route audit failed: %s", audited.status().toString().c_str());
+  } else {
+    const std::string weak = weakKeyframeSummary(*audited);
+    if (!weak.empty()) {
+      *summary += "; " + weak + " (rosrun homography_teach_repeat route_info for the reasons)";
+      for (const KeyframeAudit& a : audited->keyframes) {
+        for (const auto& w : a.fast_hd_weaknesses) ROS_WARN("teach_node: keyframe %d, fast_hd: %s", a.keyframe, w.c_str());
+      }
+    }
+  }
   publishStatus("finished", *summary);
   return Status::ok();
 }
@@ -215,6 +258,8 @@ void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
     stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, last_message_);
   } else if (!last_error_.isOk()) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_.toString());
+  } else if (!last_weak_.empty() && state_ == "teaching") {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_weak_);
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, state_ + ": " + last_message_);
   }
@@ -224,6 +269,8 @@ void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("dropped images", dropped_);
   stat.add("route", options_.route_directory);
   stat.add("last problem", last_error_.isOk() ? std::string("none") : last_error_.toString());
+  stat.add("weak keyframes", weak_keyframes_);
+  stat.add("last weak keyframe", last_weak_.empty() ? std::string("none") : last_weak_);
 }
 
 }  // namespace homography_teach_repeat

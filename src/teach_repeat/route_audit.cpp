@@ -239,3 +239,30 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
 }
 
 }  // namespace homography_teach_repeat
+
+namespace homography_teach_repeat {
+
+std::vector<std::string> storedKeyframeWeaknesses(int features, int lines, const RouteAuditOptions& options) {
+  std::vector<std::string> weaknesses;
+  if (features < options.min_plane_features) {
+    weaknesses.push_back(format("fast_hd: %.0f features (min_plane_features %.0f)", features, options.min_plane_features));
+  }
+  if (lines < options.min_lines) {
+    weaknesses.push_back(format("mu: %.0f vertical lines (min_lines %.0f)", lines, options.min_lines));
+  }
+  return weaknesses;
+}
+
+std::string weakKeyframeSummary(const RouteAudit& audit) {
+  std::string fast_hd, mu;
+  for (const KeyframeAudit& a : audit.keyframes) {
+    if (!a.fast_hd_weaknesses.empty()) fast_hd += (fast_hd.empty() ? "" : ", ") + std::to_string(a.keyframe);
+    if (!a.mu_weaknesses.empty()) mu += (mu.empty() ? "" : ", ") + std::to_string(a.keyframe);
+  }
+  std::string summary;
+  if (!fast_hd.empty()) summary += "weak for fast_hd: keyframes " + fast_hd;
+  if (!mu.empty()) summary += std::string(summary.empty() ? "" : "; ") + "weak for mu: keyframes " + mu;
+  return summary;
+}
+
+}  // namespace homography_teach_repeat

@@ -67,6 +67,7 @@ Expected<bool> TeachSession::offer(const cv::Mat& image, const Pose2D& odometry_
   if (!lines) return lines.status();
   const Status written = writer_->addKeyframe(image, *features, *lines, odometry_pose, stamp);
   if (!written.isOk()) return written;
+  last_stored_ = StoredCounts{static_cast<int>(features->keypoints.size()), static_cast<int>(lines->size())};
   keyframe_features_.push_back(std::move(*features));
   last_keyframe_pose_ = odometry_pose;
   return true;

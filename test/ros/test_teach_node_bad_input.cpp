@@ -85,6 +85,27 @@ TEST(TeachNode, BadInputIsReportedAndSurvived) {
   ASSERT_TRUE(test_support::spinUntil([&] { return status.keyframes >= 1; }, 20.0))
       << status.state << ": " << status.message;
   EXPECT_EQ(status.state, "teaching");
+
+  // A keyframe with nothing in view (a uniform image 2 m on) is stored, and said to be weak at once.
+  t = ros::Time::now();
+  odometry(t - ros::Duration(0.05), 2.0);
+  odometry(t + ros::Duration(0.05), 2.0);
+  ros::WallDuration(0.2).sleep();
+  ros::spinOnce();
+  auto blank = test_support::makeImage(cv::Mat(c.height, c.width, CV_8UC1, cv::Scalar(120)), "mono8");
+  blank->header.stamp = t;
+  blank->header.frame_id = "camera_optical_frame";
+  sensor_msgs::CameraInfo info = test_support::makeCameraInfo(c.width, c.height, c.fx);
+  info.header = blank->header;
+  camera.publish(*blank, info);
+  ASSERT_TRUE(test_support::spinUntil([&] { return status.keyframes >= 2; }, 20.0))
+      << status.state << ": " << status.message;
+  EXPECT_NE(status.message.find("keyframe 1 at (2.00, 0.00) is weak"), std::string::npos) << status.message;
+  EXPECT_NE(status.message.find("min_plane_features"), std::string::npos) << status.message;
+  EXPECT_NE(status.message.find("min_lines"), std::string::npos) << status.message;
+  ASSERT_TRUE(test_support::spinUntil(
+      [&] { return diagnostics.find("is weak") != std::string::npos; }, 10.0))
+      << diagnostics;
 }
 
 int main(int argc, char** argv) {

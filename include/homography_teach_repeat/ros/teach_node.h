@@ -4,7 +4,9 @@
 // Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber),
 //             odom (nav_msgs/Odometry; the pose of base_frame in the odometry frame)
 // tf:         base_frame -> the image's optical frame (the camera mount; must be level)
-// Publishes:  ~status (homography_teach_repeat/TeachStatus, latched), /diagnostics
+// Publishes:  ~status (homography_teach_repeat/TeachStatus, latched), /diagnostics; a keyframe
+//             stored with too few features or vertical lines is warned about at once, and the
+//             finished route's weak keyframes are named (route_audit.h)
 // Services:   ~finish (std_srvs/Trigger): estimates the planes (if first_plane_distance > 0),
 //             writes them into the route and stops recording; also run on clean shutdown.
 // Parameters: see config/teach_node.yaml
@@ -29,6 +31,7 @@
 
 #include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/teach_repeat/route_audit.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 namespace homography_teach_repeat {
@@ -55,6 +58,7 @@ class TeachNode {
   TeachOptions options_;
   std::string base_frame_;
   double max_camera_tilt_rad_ = 0.05;
+  RouteAuditOptions audit_;  // what makes a keyframe weak (docs/route_audit.md)
 
   std::mutex mutex_;  // image, odometry and service callbacks may run concurrently
   std::optional<TeachSession> session_;
@@ -65,6 +69,8 @@ class TeachNode {
   Status last_error_ = Status::ok();
   unsigned images_ = 0;
   unsigned dropped_ = 0;
+  unsigned weak_keyframes_ = 0;  // stored with fewer features or lines than audit_ wants
+  std::string last_weak_;
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;

@@ -74,4 +74,13 @@ struct RouteAudit {
 // kInvalidInput for invalid options, a route without keyframes, or a corrupt keyframe file.
 Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options);
 
+// What can be said of a keyframe the moment it is stored, before any plane is estimated (the teach
+// node warns with it): fewer features than min_plane_features (fast_hd: its plane can only have
+// fewer), fewer vertical lines than min_lines (mu). Each string names the threshold.
+std::vector<std::string> storedKeyframeWeaknesses(int features, int lines, const RouteAuditOptions& options);
+
+// "fast_hd: 3, 4 (no plane ...); mu: 0-2" style summary of the weak keyframes, for logs and status
+// messages; empty when none is weak.
+std::string weakKeyframeSummary(const RouteAudit& audit);
+
 }  // namespace homography_teach_repeat

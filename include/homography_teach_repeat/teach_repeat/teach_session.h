@@ -69,6 +69,12 @@ class TeachSession {
   Expected<PlaneEstimationReport> finish();
 
   const Route& route() const { return writer_->route(); }
+  // What the last stored keyframe holds (for the teach node's live warnings, route_audit.h).
+  struct StoredCounts {
+    int features = 0;
+    int lines = 0;
+  };
+  const StoredCounts& lastStored() const { return last_stored_; }
   int keyframeCount() const { return static_cast<int>(writer_->route().keyframes.size()); }
 
  private:
@@ -81,6 +87,7 @@ class TeachSession {
   std::optional<RouteWriter> writer_;
   std::optional<Pose2D> last_keyframe_pose_;
   std::vector<ImageFeatures> keyframe_features_;  // kept for the plane estimation
+  StoredCounts last_stored_;
 };
 
 }  // namespace homography_teach_repeat
