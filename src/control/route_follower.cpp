@@ -11,6 +11,7 @@ std::string toString(FollowState state) {
     case FollowState::kWaiting: return "waiting";
     case FollowState::kFollowing: return "following";
     case FollowState::kStopped: return "stopped";
+    case FollowState::kSearching: return "searching";
     case FollowState::kFinished: return "finished";
   }
   return "unknown";
@@ -44,6 +45,16 @@ void RouteFollowerOptions::validate() const {
   if (!(final_turn_angle > 0.0 && final_turn_angle <= M_PI)) {
     throw std::invalid_argument("final_turn_angle must be in (0, pi]");
   }
+  if (!(degraded_speed_factor > 0.0 && degraded_speed_factor <= 1.0)) {
+    throw std::invalid_argument("degraded_speed_factor must be in (0, 1]");
+  }
+  if (!std::isfinite(lost_search_delay) || lost_search_delay < 0.0) {
+    throw std::invalid_argument("lost_search_delay must be finite and >= 0");
+  }
+  if (!std::isfinite(lost_search_angle) || lost_search_angle < 0.0 || lost_search_angle > M_PI) {
+    throw std::invalid_argument("lost_search_angle must be in [0, pi]");
+  }
+  positive(lost_search_velocity, "lost_search_velocity");
 }
 
 RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options)
@@ -79,8 +90,49 @@ int RouteFollower::lapOf(std::size_t position) const {
 }
 
 void RouteFollower::setControllerParameters(const PotentialFieldParameters& parameters) {
-  controller_.setParameters(parameters);
+  parameters.validate();
   options_.controller = parameters;
+  applyTrustToLimits();
+}
+
+void RouteFollower::applyTrustToLimits() {
+  PotentialFieldParameters limits = options_.controller;
+  if (trust_ == PoseTrust::kDegraded) {
+    limits.max_linear_velocity *= options_.degraded_speed_factor;
+    limits.max_angular_velocity *= options_.degraded_speed_factor;
+  }
+  controller_.setParameters(limits);
+}
+
+void RouteFollower::setTrust(PoseTrust trust, const std::string& reason, double stamp, bool search_helps) {
+  if (!std::isfinite(stamp) || stamp < trust_stamp_) return;
+  trust_stamp_ = stamp;
+  trust_reason_ = reason;
+  search_helps_ = search_helps;
+  if (trust == PoseTrust::kLost && trust_ != PoseTrust::kLost) lost_since_ = stamp;
+  if (trust != PoseTrust::kLost) lost_since_ = std::numeric_limits<double>::quiet_NaN();
+  const bool limits_change = (trust == PoseTrust::kDegraded) != (trust_ == PoseTrust::kDegraded);
+  trust_ = trust;
+  if (limits_change) applyTrustToLimits();
+}
+
+FollowOutput RouteFollower::searchInPlace(double now, double dt) {
+  const std::string why = "integrity LOST (" + trust_reason_ + ")";
+  const double lost_for = std::isfinite(lost_since_) && std::isfinite(now) ? now - lost_since_ : 0.0;
+  const RouteFollowerOptions& o = options_;
+  if (!(o.lost_search_angle > 0.0) || !search_helps_ || lost_for < o.lost_search_delay) {
+    return stop(FollowState::kStopped, why + ": standing");
+  }
+  // A triangle wave in angle: +A, back through the start to −A, back to the start, ...
+  const double quarter = o.lost_search_angle / o.lost_search_velocity;  // [s] from 0 to ±A
+  const double phase = std::fmod(lost_for - o.lost_search_delay, 4.0 * quarter);
+  const double direction = phase < quarter || phase >= 3.0 * quarter ? 1.0 : -1.0;
+  const auto command = controller_.track(0.0, direction * o.lost_search_velocity, dt);
+  if (!command) return stop(FollowState::kStopped, why + ": " + command.status().message());
+  FollowOutput out = report(FollowState::kSearching, why + ": turning in place to look for a taught view");
+  out.command.linear = 0.0;  // never a linear motion on a pose it does not trust
+  out.command.angular = command->angular;
+  return out;
 }
 
 void RouteFollower::retune(const RouteFollowerOptions& options) {
@@ -119,6 +171,10 @@ void RouteFollower::setLost(const std::string& reason, double stamp) {
 
 FollowOutput RouteFollower::stop(FollowState state, const std::string& reason) {
   controller_.reset();
+  return report(state, reason);
+}
+
+FollowOutput RouteFollower::report(FollowState state, const std::string& reason) const {
   FollowOutput out;
   out.state = state;
   out.reason = reason;
@@ -133,6 +189,7 @@ FollowOutput RouteFollower::update(double now, double dt,
   if (next_ >= sequence_.size()) return stop(FollowState::kFinished, "end of the route");
   if (!has_fix_) return stop(FollowState::kWaiting, "no localization yet");
   if (invalid_) return stop(FollowState::kStopped, "non-finite localization");
+  if (trust_ == PoseTrust::kLost) return searchInPlace(now, dt);
   if (lost_) return stop(FollowState::kStopped, "localization lost: " + lost_reason_);
   if (!std::isfinite(now) || now - stamp_ > options_.pose_timeout) {
     return stop(FollowState::kStopped, "localization older than pose_timeout (" +
@@ -186,6 +243,7 @@ FollowOutput RouteFollower::following(const VelocityCommand& command, double dis
   out.lap = lapOf(next_);
   out.distance_to_goal = distance;
   out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
+  if (trust_ == PoseTrust::kDegraded) out.reason = "slowed down: integrity DEGRADED (" + trust_reason_ + ")";
   return out;
 }
 

@@ -75,4 +75,26 @@ Expected<PoseConsistencySummary> PoseConsistency::summary() const {
   return out;
 }
 
+Status IntegrityScore::add(const Pose2D& estimate, bool flagged, const Pose2D& truth) {
+  if (!estimate.isFinite() || !truth.isFinite()) return Status(StatusCode::kInvalidInput, "integrity score: non-finite pose");
+  const bool wrong = std::hypot(estimate.x - truth.x, estimate.y - truth.y) > wrong_position_ ||
+                     std::abs(wrapToPi(estimate.yaw - truth.yaw)) > wrong_heading_;
+  ++counts_.poses;
+  if (wrong) {
+    ++counts_.wrong;
+    if (flagged) ++counts_.wrong_flagged;
+  } else {
+    ++counts_.right;
+    if (flagged) ++counts_.right_flagged;
+  }
+  return Status::ok();
+}
+
+IntegritySummary IntegrityScore::summary() const {
+  IntegritySummary s = counts_;
+  s.detection = s.wrong > 0 ? static_cast<double>(s.wrong_flagged) / static_cast<double>(s.wrong) : 1.0;
+  s.false_alarm = s.right > 0 ? static_cast<double>(s.right_flagged) / static_cast<double>(s.right) : 0.0;
+  return s;
+}
+
 }  // namespace homography_teach_repeat

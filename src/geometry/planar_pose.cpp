@@ -1,6 +1,8 @@
 #include "homography_teach_repeat/geometry/planar_pose.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -107,9 +109,8 @@ CameraMount CameraMount::fromExtrinsic(const Eigen::Isometry3d& base_T_optical,
     throw std::invalid_argument("CameraMount: the camera extrinsic rotation is not orthonormal");
   }
   // Optical axes expressed in base_link: columns of the rotation.
-  const Eigen::Vector3d optical_y = rotation.col(1);
   const Eigen::Vector3d optical_z = rotation.col(2);
-  const double tilt = std::acos(std::clamp(-optical_y.z(), -1.0, 1.0));
+  const double tilt = tiltOf(base_T_optical);
   if (!(tilt <= max_tilt_rad)) {
     std::ostringstream msg;
     msg << "CameraMount: the camera is not level: its optical y axis is " << tilt
@@ -119,6 +120,20 @@ CameraMount CameraMount::fromExtrinsic(const Eigen::Isometry3d& base_T_optical,
   }
   const double yaw = std::atan2(optical_z.y(), optical_z.x());
   return CameraMount(base_T_optical.translation().x(), base_T_optical.translation().y(), yaw);
+}
+
+double CameraMount::tiltOf(const Eigen::Isometry3d& base_T_optical) {
+  const Eigen::Matrix3d rotation = base_T_optical.linear();
+  if (!base_T_optical.matrix().allFinite() ||
+      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return std::acos(std::clamp(-rotation.col(1).z(), -1.0, 1.0));
+}
+
+double CameraMount::elevationOf(const Eigen::Isometry3d& base_T_optical) {
+  if (!base_T_optical.matrix().allFinite()) return std::numeric_limits<double>::quiet_NaN();
+  return std::asin(std::clamp(base_T_optical.linear().col(2).z(), -1.0, 1.0));
 }
 
 Pose2D CameraMount::cameraToBase(const PlanarPose& camera_relative) const {

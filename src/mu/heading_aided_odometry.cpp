@@ -118,6 +118,18 @@ Status HeadingAidedOdometry::align(const Pose2D& route_pose, const Pose2D& odom_
   return Status::ok();
 }
 
+Status HeadingAidedOdometry::align(const Pose2D& route_pose, const Pose2D& odom_pose,
+                                   const Eigen::Matrix3d& covariance) {
+  if (!covariance.allFinite() || !covariance.isApprox(covariance.transpose(), 1e-9) ||
+      Eigen::LLT<Eigen::Matrix3d>(covariance).info() != Eigen::Success) {
+    return Status(StatusCode::kInvalidInput, "heading-aided odometry: alignment covariance not symmetric positive definite");
+  }
+  Status aligned = align(route_pose, odom_pose);
+  if (!aligned.isOk()) return aligned;
+  covariance_ = covariance;
+  return Status::ok();
+}
+
 Pose2D HeadingAidedOdometry::alignment() const { return estimate_.compose(last_odom_.inverse()); }
 
 Expected<Pose2D> HeadingAidedOdometry::odometryStepTo(const Pose2D& odom_pose) const {
@@ -152,7 +164,9 @@ Status HeadingAidedOdometry::predict(const Pose2D& odom_pose) {
 Status HeadingAidedOdometry::update(double innovation, const Eigen::RowVector3d& jacobian, double variance,
                                     const char* what) {
   double innovation_variance = (jacobian * covariance_ * jacobian.transpose())(0, 0) + variance;
-  if (innovation * innovation > options_.innovation_gate * options_.innovation_gate * innovation_variance) {
+  const double nis = innovation * innovation / innovation_variance;
+  last_innovation_ = FilterInnovation{nis, 1, false};
+  if (nis > options_.innovation_gate * options_.innovation_gate) {
     if (!countRefusal()) {
       char message[200];
       std::snprintf(message, sizeof(message),
@@ -163,6 +177,7 @@ Status HeadingAidedOdometry::update(double innovation, const Eigen::RowVector3d&
     innovation_variance = (jacobian * covariance_ * jacobian.transpose())(0, 0) + variance;
   }
   refused_in_a_row_ = 0;
+  last_innovation_->accepted = true;
   const Eigen::Vector3d gain = covariance_ * jacobian.transpose() / innovation_variance;
   estimate_.x += gain(0) * innovation;
   estimate_.y += gain(1) * innovation;
@@ -172,6 +187,37 @@ Status HeadingAidedOdometry::update(double innovation, const Eigen::RowVector3d&
   covariance_ = keep * covariance_ * keep.transpose() + gain * variance * gain.transpose();
   distance_since_fix_ = 0.0;
   return Status::ok();
+}
+
+Expected<double> HeadingAidedOdometry::correctWithPose(const Pose2D& measured, const Eigen::Matrix3d& measurement_covariance,
+                                                       const Pose2D& odom_pose) {
+  if (!measured.isFinite() || !measurement_covariance.allFinite() ||
+      !measurement_covariance.isApprox(measurement_covariance.transpose(), 1e-9) ||
+      Eigen::LLT<Eigen::Matrix3d>(measurement_covariance).info() != Eigen::Success) {
+    return Status(StatusCode::kInvalidInput,
+                  "heading-aided odometry: pose fix not finite or its covariance not symmetric positive definite");
+  }
+  Status predicted_to_fix = predict(odom_pose);
+  if (!predicted_to_fix.isOk()) return predicted_to_fix;
+  // H = I: the innovation is the pose difference (yaw wrapped), S = P + R (docs/math.md §7.1).
+  const Eigen::Vector3d innovation(measured.x - estimate_.x, measured.y - estimate_.y,
+                                   wrapToPi(measured.yaw - estimate_.yaw));
+  const Eigen::Matrix3d S = covariance_ + measurement_covariance;
+  const Eigen::LDLT<Eigen::Matrix3d> S_ldlt(S);
+  const double nis = innovation.dot(S_ldlt.solve(innovation));
+  const Eigen::Matrix3d gain = covariance_ * S_ldlt.solve(Eigen::Matrix3d::Identity());
+  const Eigen::Vector3d correction = gain * innovation;
+  if (!correction.allFinite() || !std::isfinite(nis)) {
+    return Status(StatusCode::kNotFinite, "heading-aided odometry: the pose update is not finite");
+  }
+  estimate_ = Pose2D(estimate_.x + correction(0), estimate_.y + correction(1), wrapToPi(estimate_.yaw + correction(2)));
+  const Eigen::Matrix3d keep = Eigen::Matrix3d::Identity() - gain;
+  covariance_ = keep * covariance_ * keep.transpose() + gain * measurement_covariance * gain.transpose();
+  covariance_ = 0.5 * (covariance_ + covariance_.transpose());
+  refused_in_a_row_ = 0;
+  distance_since_fix_ = 0.0;
+  last_innovation_ = FilterInnovation{nis, 3, true};
+  return nis;
 }
 
 bool HeadingAidedOdometry::countRefusal() {
@@ -396,8 +442,8 @@ Expected<int> HeadingAidedOdometry::correctWithLineLandmarks(const LineLandmarkO
   const Pose2D prior = estimate_;
   const Eigen::Matrix3d P = covariance_;
   Pose2D iterate = prior;
-  Eigen::MatrixXd H, K, R;
-  Eigen::VectorXd noise;
+  Eigen::MatrixXd H, K, R, S;
+  Eigen::VectorXd noise, prior_innovation;
   for (int round = 0;; ++round) {
     const int n = static_cast<int>(associations.size());
     if (n < options_.min_landmark_lines) {
@@ -422,9 +468,10 @@ Expected<int> HeadingAidedOdometry::correctWithLineLandmarks(const LineLandmarkO
           options_.line_heading_sigma_rad * options_.line_heading_sigma_rad * H.col(2) * H.col(2).transpose() +
           options_.line_position_sigma_m * options_.line_position_sigma_m *
               (H.col(0) * H.col(0).transpose() + H.col(1) * H.col(1).transpose());
-      const Eigen::MatrixXd S = H * P * H.transpose() + R;
+      S = H * P * H.transpose() + R;
       K = P * H.transpose() * S.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
-      const Eigen::Vector3d correction = K * (innovation - H * offset);
+      prior_innovation = innovation - H * offset;  // linearized about the prior
+      const Eigen::Vector3d correction = K * prior_innovation;
       if (!correction.allFinite()) return refuse("the update is not finite");
       iterate = Pose2D(prior.x + correction(0), prior.y + correction(1), wrapToPi(prior.yaw + correction(2)));
     }
@@ -446,6 +493,7 @@ Expected<int> HeadingAidedOdometry::correctWithLineLandmarks(const LineLandmarkO
   estimate_ = iterate;
   refused_in_a_row_ = 0;
   distance_since_fix_ = 0.0;
+  last_innovation_ = FilterInnovation{prior_innovation.dot(S.ldlt().solve(prior_innovation)), n, true};
   return n;
 }
 

@@ -64,7 +64,7 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
                                  : readParameter<std::string>(private_nh, "route_directory", "");
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   scan_timeout_ = readParameter(private_nh, "scan_timeout", 0.5);
-  stop_abort_timeout_ = readParameter(private_nh, "stop_abort_timeout", 10.0);
+  stop_abort_timeout_ = readParameter(private_nh, "stop_abort_timeout", 20.0);
   shutdown_when_finished_ = readParameter(private_nh, "shutdown_when_finished", false);
   if (!(rate > 0.0) || !std::isfinite(rate)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0 Hz");
@@ -96,6 +96,7 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
                              "' must be 'localization' or 'odometry', not '" + pose_source + "'");
   }
   heading_subscriber_ = nh_.subscribe("heading_correction", 5, &ControllerNode::onHeading, this);
+  integrity_subscriber_ = nh_.subscribe("integrity", 5, &ControllerNode::onIntegrity, this);
   scan_subscriber_ = nh_.subscribe("scan", 1, &ControllerNode::onScan, this);
   diagnostics_.setHardwareID("controller_node");
   diagnostics_.add("controller", this, &ControllerNode::produceDiagnostics);
@@ -267,6 +268,17 @@ void ControllerNode::onHeading(const HeadingCorrectionStampedConstPtr& heading) 
   follower_->setLost(heading->status, heading->header.stamp.toSec());
 }
 
+void ControllerNode::onIntegrity(const IntegrityConstPtr& integrity) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  integrity_ = integrity->level_name;
+  integrity_reason_ = integrity->reason;
+  if (!follower_) return;
+  const PoseTrust trust = integrity->level == Integrity::OK         ? PoseTrust::kOk
+                          : integrity->level == Integrity::DEGRADED ? PoseTrust::kDegraded
+                                                                    : PoseTrust::kLost;
+  follower_->setTrust(trust, integrity->reason, integrity->header.stamp.toSec(), !integrity->camera_silent);
+}
+
 void ControllerNode::onScan(const sensor_msgs::LaserScanConstPtr& scan) {
   std::vector<Eigen::Vector2d> points;
   for (std::size_t i = 0; i < scan->ranges.size(); ++i) {
@@ -295,6 +307,8 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
     out = follower_->update(now.toSec(), control_period_, fresh_scan ? obstacles_ : kNoObstacles);
     feedback.reference_index = reference_index_;
     feedback.inliers = inliers_;
+    feedback.integrity = integrity_;
+    feedback.integrity_reason = integrity_reason_;
   }
   geometry_msgs::Twist command;
   command.linear.x = out.command.linear;
@@ -306,8 +320,8 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
     // parentheses (the pose's age grows every cycle while stopped) at most every 5 s.
     auto withoutFigures = [](const std::string& reason) { return reason.substr(0, reason.find('(')); };
     if (out.state != last_output_.state || withoutFigures(out.reason) != withoutFigures(last_output_.reason)) {
-      if (out.state == FollowState::kStopped) {
-        ROS_WARN("controller_node: stopped: %s", out.reason.c_str());
+      if (out.state == FollowState::kStopped || out.state == FollowState::kSearching) {
+        ROS_WARN("controller_node: %s: %s", toString(out.state).c_str(), out.reason.c_str());
       } else {
         ROS_INFO("controller_node: %s", last_state_.c_str());
       }
@@ -367,8 +381,9 @@ void ControllerNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrap
     return;
   }
   const FollowOutput& out = last_output_;
-  const unsigned char level = out.state == FollowState::kStopped ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                                  : diagnostic_msgs::DiagnosticStatus::OK;
+  const unsigned char level = out.state == FollowState::kStopped || out.state == FollowState::kSearching
+                                  ? diagnostic_msgs::DiagnosticStatus::WARN
+                                  : diagnostic_msgs::DiagnosticStatus::OK;
   stat.summary(level, toString(out.state) + (out.reason.empty() ? "" : ": " + out.reason));
   stat.add("goal keyframe", out.goal_index);
   stat.add("lap", out.lap);
@@ -376,6 +391,7 @@ void ControllerNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrap
   stat.add("progress", out.progress);
   stat.add("linear velocity [m/s]", out.command.linear);
   stat.add("angular velocity [rad/s]", out.command.angular);
+  stat.add("integrity", integrity_.empty() ? "none received" : integrity_ + (integrity_reason_.empty() ? "" : ": " + integrity_reason_));
 }
 
 }  // namespace homography_teach_repeat

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
 #include "homography_teach_repeat/ros/repeat_parameters.h"
@@ -42,6 +43,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
 
   pose_publisher_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 5);
   heading_publisher_ = private_nh_.advertise<HeadingCorrectionStamped>("heading_correction", 5);
+  integrity_publisher_ = private_nh_.advertise<Integrity>("integrity", 5);
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("route_markers", 1, /*latch=*/true);
   publishMarkers(pipeline_->localizer().trackedKeyframe());
   image_transport::ImageTransport private_transport(private_nh_);
@@ -59,6 +61,17 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
       if (silence > image_timeout_) {
         ROS_WARN_THROTTLE(10.0, "repeat_node: no image on %s for %.1f s: no pose is published",
                           camera_subscriber_.getTopic().c_str(), silence);
+        // Nothing to judge: the pose is LOST until images come again.
+        IntegrityReport report;
+        report.level = IntegrityLevel::kLost;
+        char reason[160];
+        std::snprintf(reason, sizeof reason, "camera stopped: no image for %.1f s (image_timeout %.1f s)", silence,
+                      image_timeout_);
+        report.reason = reason;
+        std_msgs::Header header;
+        header.stamp = ros::Time::now();
+        header.frame_id = map_frame_;
+        publishIntegrity(header, report, "", /*camera_silent=*/true);
       }
     }
     diagnostics_.update();
@@ -71,6 +84,9 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   reconfigure_server_->setCallback([this](RepeatConfig& c, uint32_t level) { onReconfigure(c, level); });
   ROS_INFO("repeat_node: route '%s' with %d keyframes, mode %s", directory.c_str(),
            pipeline_->localizer().keyframeCount(), toString(options.localization.mode).c_str());
+  if (!pipeline_->hybridNotes().empty()) {
+    ROS_WARN("repeat_node: hybrid mode runs on what the route has: %s", pipeline_->hybridNotes().c_str());
+  }
 }
 
 void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
@@ -151,6 +167,9 @@ void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFr
     ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", result.status.toString().c_str());
   }
   heading_publisher_.publish(heading);
+  std_msgs::Header integrity_header = image->header;
+  integrity_header.frame_id = map_frame_;
+  publishIntegrity(integrity_header, result.integrity, result.fixes, /*camera_silent=*/false);
   if (!result.warning.empty()) ROS_WARN_THROTTLE(5.0, "repeat_node: %s", result.warning.c_str());
   if (debug_publisher_.getNumSubscribers() > 0 && cv_image) publishDebugImage(image, *cv_image, result);
   if (!result.pose) return;
@@ -195,6 +214,33 @@ void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, cons
   debug_publisher_.publish(cv_bridge::CvImage(image->header, "bgr8", canvas).toImageMsg());
 }
 
+void RepeatNode::publishIntegrity(const std_msgs::Header& header, const IntegrityReport& report,
+                                  const std::string& fixes, bool camera_silent) {
+  if (report.level != last_integrity_.level) {
+    if (report.level == IntegrityLevel::kOk) {
+      ROS_INFO("repeat_node: integrity OK");
+    } else {
+      ROS_WARN("repeat_node: integrity %s: %s", toString(report.level).c_str(), report.reason.c_str());
+    }
+  }
+  last_integrity_ = report;
+  Integrity message;
+  message.header = header;
+  message.level = static_cast<uint8_t>(report.level);
+  message.level_name = toString(report.level);
+  message.reason = report.reason;
+  message.fixes = fixes;
+  message.position_bound = report.position_bound;
+  message.heading_bound = report.heading_bound;
+  message.nis_per_dof = report.nis_per_dof;
+  message.refused_in_a_row = report.refused_in_a_row;
+  message.time_without_fix = report.time_without_fix;
+  message.distance_without_fix = report.distance_without_fix;
+  message.inliers = report.inliers;
+  message.camera_silent = camera_silent;
+  integrity_publisher_.publish(message);
+}
+
 void RepeatNode::publishMarkers(int current_keyframe) {
   marked_keyframe_ = current_keyframe;
   marker_publisher_.publish(
@@ -221,14 +267,27 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, s.last_status.toString());
   } else if (s.last_degraded) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "degraded: localized against the temporary reference (route keyframes fail)");
+  } else if (last_integrity_.level != IntegrityLevel::kOk) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                 "integrity " + toString(last_integrity_.level) + ": " + last_integrity_.reason);
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "localized");
   }
   stat.add("frames", s.frames);
   stat.add("seconds since the last image", s.frames > 0 ? silence : -1.0);
+  stat.add("integrity", toString(last_integrity_.level) +
+                            (last_integrity_.reason.empty() ? "" : ": " + last_integrity_.reason));
+  stat.addf("integrity 95 % bounds [m, deg]", "%.3f, %.2f", last_integrity_.position_bound,
+            last_integrity_.heading_bound * 180.0 / M_PI);
+  stat.addf("integrity NIS per dof (fixes)", "%.2f (%d)", last_integrity_.nis_per_dof, last_integrity_.nis_count);
+  stat.addf("integrity time / distance without a fix [s, m]", "%.1f, %.2f", last_integrity_.time_without_fix,
+            last_integrity_.distance_without_fix);
+  if (!pipeline_->hybridNotes().empty()) stat.add("hybrid: missing from the route", pipeline_->hybridNotes());
   stat.add("failures", s.failures);
   stat.add("degraded frames", s.degraded);
   stat.add("poses refused by the odometry gate", s.gated);
+  stat.add("failed frames in a row", s.failures_in_a_row);
+  stat.addf("whole-route searches (found a pose)", "%u (%u)", s.searches_all, s.found_by_search_all);
   // Median and maximum over the last frames (the latency an image sees is its age + processing).
   using Figure = std::optional<double>;
   stat.add("processing time median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) { return Figure(t.processing_ms); }));

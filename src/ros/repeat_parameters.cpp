@@ -61,7 +61,22 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
       o.odometry_gate.reset();
     }
     o.start_keyframe = readParameter(nh, "start_keyframe", o.start_keyframe);
-    o.mu_max_unaided_distance = readParameter(nh, "mu_max_unaided_distance", o.mu_max_unaided_distance);
+    o.max_unaided_distance = readParameter(nh, "max_unaided_distance", o.max_unaided_distance);
+    o.follow_odometry_distance = readParameter(nh, "follow_odometry_distance", o.follow_odometry_distance);
+    o.search_all_after = readParameter(nh, "search_all_after", o.search_all_after);
+    o.hybrid_fuse_both = readParameter(nh, "hybrid_fuse_both", o.hybrid_fuse_both);
+    IntegrityOptions& i = o.integrity;
+    i.degraded_position_bound = readParameter(nh, "integrity_degraded_position_bound", i.degraded_position_bound);
+    i.lost_position_bound = readParameter(nh, "integrity_lost_position_bound", i.lost_position_bound);
+    i.degraded_heading_bound = readParameter(nh, "integrity_degraded_heading_bound", i.degraded_heading_bound);
+    i.lost_heading_bound = readParameter(nh, "integrity_lost_heading_bound", i.lost_heading_bound);
+    i.nis_window = readParameter(nh, "integrity_nis_window", i.nis_window);
+    i.degraded_nis = readParameter(nh, "integrity_degraded_nis", i.degraded_nis);
+    i.degraded_refused_in_a_row = readParameter(nh, "integrity_degraded_refused_in_a_row", i.degraded_refused_in_a_row);
+    i.lost_refused_in_a_row = readParameter(nh, "integrity_lost_refused_in_a_row", i.lost_refused_in_a_row);
+    i.degraded_time_without_fix = readParameter(nh, "integrity_degraded_time_without_fix", i.degraded_time_without_fix);
+    i.lost_time_without_fix = readParameter(nh, "integrity_lost_time_without_fix", i.lost_time_without_fix);
+    i.degraded_min_inliers = readParameter(nh, "integrity_degraded_min_inliers", i.degraded_min_inliers);
     o.validate();
   });
   return o;

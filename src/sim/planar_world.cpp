@@ -74,7 +74,20 @@ Status PlanarWorld::validate() const {
   if (!std::isfinite(illumination.period) || !(illumination.period > 0.0)) {
     return bad("illumination.period must be > 0");
   }
+  for (std::size_t i = 0; i < camera_covered.size(); ++i) {
+    const CoveredRegion& r = camera_covered[i];
+    const std::string name = "camera_covered[" + std::to_string(i) + "]" + (r.name.empty() ? "" : " (" + r.name + ")");
+    if (!r.min.allFinite() || !r.max.allFinite()) return bad(name + ": min/max not finite");
+    if (!(r.min.array() < r.max.array()).all()) return bad(name + ": min must be below max in x and y");
+  }
   return Status::ok();
+}
+
+bool PlanarWorld::cameraCoveredAt(const Eigen::Vector2d& position) const {
+  for (const CoveredRegion& region : camera_covered) {
+    if (region.contains(position)) return true;
+  }
+  return false;
 }
 
 Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
@@ -101,6 +114,17 @@ Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
     if (const YAML::Node light = root["illumination"]) {
       world.illumination.amplitude = finiteNumber(light["amplitude"], "illumination.amplitude");
       world.illumination.period = finiteNumber(light["period"], "illumination.period");
+    }
+    if (const YAML::Node covered = root["camera_covered"]) {
+      if (!covered.IsSequence()) throw FieldError("'camera_covered' must be a list of {min: [x, y], max: [x, y]}");
+      for (std::size_t i = 0; i < covered.size(); ++i) {
+        const std::string field = "camera_covered[" + std::to_string(i) + "]";
+        CoveredRegion region;
+        if (covered[i]["name"]) region.name = covered[i]["name"].as<std::string>();
+        region.min = point(covered[i]["min"], field + ".min");
+        region.max = point(covered[i]["max"], field + ".max");
+        world.camera_covered.push_back(std::move(region));
+      }
     }
     const YAML::Node walls = root["walls"];
     if (!walls || !walls.IsSequence() || walls.size() == 0) throw FieldError("'walls' must be a non-empty list");

@@ -31,6 +31,11 @@ class PointEstimator : public KeyframeEstimator {
       : KeyframeEstimator(context), extractor_(FeatureOptions{context.feature_type, context.options.max_features}) {}
 
   bool usesPointFeatures() const override { return true; }
+  // A pose needs the keyframe's plane (a hybrid route may have keyframes without one).
+  bool usable(const KeyframeReference& reference, int /*keyframe*/,
+              const std::optional<Pose2D>& /*predicted_pose*/) const override {
+    return reference.plane.has_value();
+  }
 
   Expected<FrameObservations> observe(const cv::Mat& /*image*/, const cv::Mat& gray) override {
     auto features = extractor_.extract(gray);
@@ -277,6 +282,7 @@ std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext&
     case RepeatMode::kFastHd: return std::make_unique<FastHdEstimator>(context);
     case RepeatMode::kClassic: return std::make_unique<ClassicEstimator>(context);
     case RepeatMode::kMu: return std::make_unique<MuEstimator>(context);
+    case RepeatMode::kHybrid: break;
   }
   return nullptr;
 }

@@ -30,6 +30,10 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
   if (route.keyframes.empty()) {
     return Status(StatusCode::kInvalidInput, "route '" + route.directory + "' has no keyframe");
   }
+  if (options.mode == RepeatMode::kHybrid) {
+    return Status(StatusCode::kInvalidInput,
+                  "hybrid mode loads a fast_hd and a mu store (RepeatPipeline), not one of its own");
+  }
   KeyframeStore store;
   for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
     KeyframeReference reference;
@@ -40,7 +44,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       if (!lines) return lines.status();
       reference.lines = std::move(*lines);
     } else {
-      if (!reference.plane) {
+      if (!reference.plane && options.require_planes) {
         return Status(StatusCode::kInvalidInput,
                       "keyframe " + std::to_string(k) + " of '" + route.directory + "' has no plane: " +
                           toString(options.mode) + " mode needs the plane estimation of the teach phase (or use mu)");
@@ -133,6 +137,7 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
   if (n < 2) return;
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    if (!reference.plane) continue;  // (hybrid: not used for poses)
     const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(k + 1 < n ? k + 1 : k - 1)];
     const PlanarPose relative = mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
     Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);

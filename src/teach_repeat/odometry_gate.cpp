@@ -30,6 +30,7 @@ void OdometryGateOptions::validate() const {
 OdometryGate::OdometryGate(const OdometryGateOptions& options) : options_(options) { options_.validate(); }
 
 void OdometryGate::reset() {
+  switched_ = false;
   accepted_.clear();
   candidate_.reset();
   candidates_ = 0;
@@ -82,6 +83,7 @@ Status OdometryGate::agrees(const Pose2D& visual, const Pose2D& odometry) const 
 }
 
 Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
+  switched_ = false;
   Status verdict = agrees(visual, odometry);
   if (verdict.code() == StatusCode::kInvalidInput) return verdict;
   const Anchor current{visual, odometry};
@@ -105,6 +107,7 @@ Status OdometryGate::check(const Pose2D& visual, const Pose2D& odometry) {
     accept(current);
     candidate_.reset();
     candidates_ = 0;
+    switched_ = true;
     return Status::ok();
   }
   return verdict;

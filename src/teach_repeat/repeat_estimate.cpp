@@ -9,7 +9,8 @@ RepeatMode repeatModeFromString(const std::string& name) {
   if (name == "fast_hd") return RepeatMode::kFastHd;
   if (name == "mu") return RepeatMode::kMu;
   if (name == "classic") return RepeatMode::kClassic;
-  throw std::invalid_argument("unknown mode '" + name + "' (fast_hd, mu, classic)");
+  if (name == "hybrid") return RepeatMode::kHybrid;
+  throw std::invalid_argument("unknown mode '" + name + "' (fast_hd, mu, classic, hybrid)");
 }
 
 std::string toString(RepeatMode mode) {
@@ -17,6 +18,7 @@ std::string toString(RepeatMode mode) {
     case RepeatMode::kFastHd: return "fast_hd";
     case RepeatMode::kMu: return "mu";
     case RepeatMode::kClassic: return "classic";
+    case RepeatMode::kHybrid: return "hybrid";
   }
   return "unknown";
 }

@@ -108,9 +108,11 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   Status last_failure(StatusCode::kNoConsensus, "no reference keyframe tried");
   if (candidates.empty()) {
     last_failure = Status(StatusCode::kNoConsensus,
-                          "mu: no keyframe near " + std::to_string(selector_.tracked()) +
-                              " gives a heading fix here (turned in place, or facing more than " +
-                              std::to_string(options().mu_max_reference_angle) + " rad away)");
+                          estimator_->usesPointFeatures()
+                              ? "no keyframe near " + std::to_string(selector_.tracked()) + " has a plane (a pose needs one)"
+                              : "mu: no keyframe near " + std::to_string(selector_.tracked()) +
+                                    " gives a heading fix here (turned in place, or facing more than " +
+                                    std::to_string(options().mu_max_reference_angle) + " rad away)");
   }
   // The first estimate the check refused: returned when no other reference gives one it accepts
   // (the caller decides about it, as without a check).

@@ -216,11 +216,94 @@ TEST(RouteFollower, BadOptions) {
        {&RouteFollowerOptions::final_approach_distance, &RouteFollowerOptions::final_goal_tolerance,
         &RouteFollowerOptions::final_turn_angle, &RouteFollowerOptions::final_approach_gain,
         &RouteFollowerOptions::final_turn_gain, &RouteFollowerOptions::final_heading_tolerance,
-        &RouteFollowerOptions::closed_route_gap}) {
+        &RouteFollowerOptions::closed_route_gap, &RouteFollowerOptions::degraded_speed_factor,
+        &RouteFollowerOptions::lost_search_delay, &RouteFollowerOptions::lost_search_angle,
+        &RouteFollowerOptions::lost_search_velocity}) {
     options = RouteFollowerOptions();
     options.*field = std::nan("");
     EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
   }
+}
+
+// The pose's integrity: DEGRADED caps the speeds at degraded_speed_factor of the limits; LOST
+// stops the robot at once (no linear motion while LOST), then after lost_search_delay turns it in
+// place to each side by lost_search_angle; OK again, it follows the route at full speed. An
+// integrity report older than the last one is ignored.
+TEST(RouteFollower, IntegritySlowsDownStopsAndSearches) {
+  RouteFollowerOptions options;
+  options.controller.max_linear_velocity = 0.5;
+  options.degraded_speed_factor = 0.4;
+  options.lost_search_delay = 1.0;
+  options.lost_search_angle = 0.6;
+  options.lost_search_velocity = 0.3;
+  RouteFollower follower(squareRoute(), options);
+  double now = 10.0;
+  FollowOutput out;
+  auto run = [&](double seconds, PoseTrust trust, double* max_linear = nullptr, double* turned = nullptr) {
+    for (double t = 0.0; t < seconds; t += 0.05) {
+      now += 0.05;
+      EXPECT_TRUE(follower.setFix(Pose2D(0.5, 0.0, 0.0), now).isOk());
+      follower.setTrust(trust, "test", now);
+      out = follower.update(now, 0.05);
+      if (max_linear != nullptr) *max_linear = std::max(*max_linear, out.command.linear);
+      if (turned != nullptr) *turned += out.command.angular * 0.05;
+    }
+  };
+  double full = 0.0, slow = 0.0;
+  run(3.0, PoseTrust::kOk, &full);
+  EXPECT_GT(full, 0.45);  // the dynamics of eq. (3) approach the limit
+  run(3.0, PoseTrust::kDegraded);
+  run(1.0, PoseTrust::kDegraded, &slow);
+  EXPECT_NEAR(slow, 0.2, 1e-9);
+  EXPECT_EQ(out.state, FollowState::kFollowing);
+  EXPECT_NE(out.reason.find("DEGRADED"), std::string::npos) << out.reason;
+  // LOST: at once no linear motion; standing for lost_search_delay, then turning to each side.
+  double linear = 0.0, turned = 0.0;
+  run(0.05, PoseTrust::kLost, &linear);
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  run(0.9, PoseTrust::kLost, &linear, &turned);
+  EXPECT_EQ(linear, 0.0);
+  EXPECT_EQ(turned, 0.0);
+  run(2.0, PoseTrust::kLost, &linear, &turned);
+  EXPECT_EQ(out.state, FollowState::kSearching);
+  EXPECT_NE(out.reason.find("turning in place"), std::string::npos) << out.reason;
+  EXPECT_GT(turned, 0.4);  // towards +0.6 rad within the acceleration limit
+  double extreme = turned;
+  for (int i = 0; i < 200; ++i) {
+    run(0.05, PoseTrust::kLost, &linear, &turned);
+    extreme = std::max(extreme, std::abs(turned));
+  }
+  EXPECT_EQ(linear, 0.0);  // never a linear motion while LOST
+  EXPECT_LT(extreme, 0.7);
+  EXPECT_GT(extreme, 0.5);
+  // An older report does not change the verdict; a new OK does.
+  follower.setTrust(PoseTrust::kOk, "old", now - 1.0);
+  now += 0.05;
+  EXPECT_TRUE(follower.setFix(Pose2D(0.5, 0.0, 0.0), now).isOk());
+  EXPECT_EQ(follower.update(now, 0.05).state, FollowState::kSearching);
+  double back = 0.0;
+  run(3.0, PoseTrust::kOk, &back);
+  EXPECT_EQ(out.state, FollowState::kFollowing);
+  EXPECT_GT(back, 0.45);
+}
+
+// lost_search_angle 0: a LOST robot stands.
+TEST(RouteFollower, LostWithoutSearchStands) {
+  RouteFollowerOptions options;
+  options.lost_search_angle = 0.0;
+  RouteFollower follower(squareRoute(), options);
+  FollowOutput out;
+  for (int k = 0; k < 100; ++k) {
+    const double now = 1.0 + 0.05 * k;
+    ASSERT_TRUE(follower.setFix(Pose2D(0.5, 0.0, 0.0), now).isOk());
+    follower.setTrust(PoseTrust::kLost, "covered", now);
+    out = follower.update(now, 0.05);
+    EXPECT_EQ(out.command.linear, 0.0);
+    EXPECT_EQ(out.command.angular, 0.0);
+  }
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_NE(out.reason.find("covered"), std::string::npos) << out.reason;
 }
 
 // dynamic_reconfigure retunes the controller and the timeout; a bad value changes nothing.

@@ -102,3 +102,24 @@ TEST(PoseConsistency, RefusesWhatCannotBeScored) {
   EXPECT_TRUE(consistency.add(origin, good, origin).isOk());
   EXPECT_EQ(consistency.summary()->samples, 1U);
 }
+
+// The integrity score: wrong poses (0.3 m or 5° off) flagged or not, right ones flagged or not.
+TEST(IntegrityScore, DetectionAndFalseAlarms) {
+  IntegrityScore score;
+  const Pose2D truth(1.0, 2.0, 0.5);
+  EXPECT_DOUBLE_EQ(score.summary().detection, 1.0);  // nothing wrong yet
+  ASSERT_TRUE(score.add(Pose2D(1.0, 2.4, 0.5), true, truth).isOk());    // 0.4 m off, flagged
+  ASSERT_TRUE(score.add(Pose2D(1.0, 2.0, 0.6), false, truth).isOk());   // 5.7° off, missed
+  ASSERT_TRUE(score.add(Pose2D(1.1, 2.1, 0.52), false, truth).isOk());  // right, quiet
+  ASSERT_TRUE(score.add(Pose2D(1.1, 2.1, 0.52), true, truth).isOk());   // right, false alarm
+  ASSERT_TRUE(score.add(Pose2D(1.0, 2.0, 0.5), false, truth).isOk());   // right, quiet
+  EXPECT_EQ(score.add(Pose2D(NAN, 2.0, 0.5), true, truth).code(), StatusCode::kInvalidInput);
+  const IntegritySummary s = score.summary();
+  EXPECT_EQ(s.poses, 5u);
+  EXPECT_EQ(s.wrong, 2u);
+  EXPECT_EQ(s.wrong_flagged, 1u);
+  EXPECT_EQ(s.right, 3u);
+  EXPECT_EQ(s.right_flagged, 1u);
+  EXPECT_DOUBLE_EQ(s.detection, 0.5);
+  EXPECT_DOUBLE_EQ(s.false_alarm, 1.0 / 3.0);
+}

@@ -363,5 +363,77 @@ TEST(HeadingAidedOdometry, LineLandmarksRefuseTooFewLinesAndBadInput) {
   EXPECT_EQ(odometry.correctWithLineLandmarks(broken, Pose2D(0.5, 0.0, 0.0)).status().code(), StatusCode::kInvalidInput);
 }
 
+
+// A pose fix (hybrid mode): the Kalman update with H = I. With diagonal P and R each component is
+// the inverse-variance mean; the NIS is νᵀ(P + R)⁻¹ν; align() with a covariance starts from it.
+TEST(HeadingAidedOdometry, PoseFixIsTheKalmanUpdateWithItsInnovation) {
+  HeadingAidedOdometryOptions options;
+  options.position_variance_per_metre = 0.0;
+  options.heading_variance_per_metre = 0.0;
+  options.heading_variance_per_radian = 0.0;
+  HeadingAidedOdometry filter(options);
+  const Eigen::Matrix3d prior = Eigen::Vector3d(0.04, 0.01, 0.0025).asDiagonal();
+  ASSERT_TRUE(filter.align(Pose2D(1.0, 2.0, 0.3), Pose2D(0.0, 0.0, 0.0), prior).isOk());
+  EXPECT_TRUE(filter.covariance().isApprox(prior));
+  const Eigen::Matrix3d R = Eigen::Vector3d(0.01, 0.01, 0.0025).asDiagonal();
+  const Pose2D measured(1.1, 1.9, 0.35);
+  const auto nis = filter.correctWithPose(measured, R, Pose2D(0.0, 0.0, 0.0));
+  ASSERT_TRUE(nis.isOk()) << nis.status().toString();
+  const double expected_nis = 0.1 * 0.1 / 0.05 + 0.1 * 0.1 / 0.02 + 0.05 * 0.05 / 0.005;
+  EXPECT_NEAR(*nis, expected_nis, 1e-9);
+  const auto innovation = filter.takeInnovation();
+  ASSERT_TRUE(innovation);
+  EXPECT_EQ(innovation->dof, 3);
+  EXPECT_TRUE(innovation->accepted);
+  EXPECT_NEAR(innovation->nis, expected_nis, 1e-9);
+  EXPECT_FALSE(filter.takeInnovation());  // taken
+  const auto pose = filter.routePose(Pose2D(0.0, 0.0, 0.0));
+  ASSERT_TRUE(pose.isOk());
+  EXPECT_NEAR(pose->x, (0.01 * 1.0 + 0.04 * 1.1) / 0.05, 1e-9);
+  EXPECT_NEAR(pose->y, (0.01 * 2.0 + 0.01 * 1.9) / 0.02, 1e-9);
+  EXPECT_NEAR(pose->yaw, 0.325, 1e-9);
+  EXPECT_NEAR(filter.covariance()(0, 0), 0.04 * 0.01 / 0.05, 1e-12);
+  EXPECT_NEAR(filter.covariance()(1, 1), 0.005, 1e-12);
+  EXPECT_NEAR(filter.covariance()(2, 2), 0.00125, 1e-12);
+  EXPECT_DOUBLE_EQ(filter.distanceSinceFix(), 0.0);
+  // The yaw innovation is wrapped: a measurement at -π + 0.01 against π - 0.01 is 0.02 away.
+  HeadingAidedOdometry wrapped(options);
+  ASSERT_TRUE(wrapped.align(Pose2D(0.0, 0.0, M_PI - 0.01), Pose2D(), prior).isOk());
+  ASSERT_TRUE(wrapped.correctWithPose(Pose2D(0.0, 0.0, -M_PI + 0.01), R, Pose2D()).isOk());
+  EXPECT_NEAR(std::abs(wrapToPi(wrapped.routePose(Pose2D())->yaw - M_PI)), 0.0, 1e-9);
+}
+
+TEST(HeadingAidedOdometry, PoseFixBadInputIsRefused) {
+  HeadingAidedOdometry filter;
+  const Eigen::Matrix3d R = Eigen::Matrix3d::Identity() * 1e-4;
+  EXPECT_EQ(filter.correctWithPose(Pose2D(), R, Pose2D()).status().code(), StatusCode::kNoConsensus);  // not aligned
+  ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
+  EXPECT_EQ(filter.correctWithPose(Pose2D(NAN, 0.0, 0.0), R, Pose2D()).status().code(), StatusCode::kInvalidInput);
+  Eigen::Matrix3d indefinite = R;
+  indefinite(2, 2) = -1.0;
+  EXPECT_EQ(filter.correctWithPose(Pose2D(), indefinite, Pose2D()).status().code(), StatusCode::kInvalidInput);
+  Eigen::Matrix3d asymmetric = R;
+  asymmetric(0, 1) = 5e-5;
+  EXPECT_EQ(filter.correctWithPose(Pose2D(), asymmetric, Pose2D()).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(filter.align(Pose2D(), Pose2D(), indefinite).code(), StatusCode::kInvalidInput);
+}
+
+// Every scalar fix leaves its innovation, accepted or refused by the gate.
+TEST(HeadingAidedOdometry, ScalarFixesLeaveTheirInnovation) {
+  HeadingAidedOdometry filter;
+  ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
+  ASSERT_TRUE(filter.correctHeading(0.005, Pose2D()).isOk());
+  auto taken = filter.takeInnovation();
+  ASSERT_TRUE(taken);
+  EXPECT_TRUE(taken->accepted);
+  EXPECT_EQ(taken->dof, 1);
+  EXPECT_NEAR(taken->nis, 0.005 * 0.005 / (2.0 * 7.6e-5), 1e-9);
+  EXPECT_FALSE(filter.correctHeading(0.5, Pose2D()).isOk());  // far beyond the 4 σ gate
+  taken = filter.takeInnovation();
+  ASSERT_TRUE(taken);
+  EXPECT_FALSE(taken->accepted);
+  EXPECT_GT(taken->nis, 16.0);
+}
+
 }  // namespace
 }  // namespace homography_teach_repeat

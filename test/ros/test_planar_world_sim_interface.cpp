@@ -75,8 +75,10 @@ TEST(PlanarWorldSim, PublishesEverythingAndDrives) {
   EXPECT_NEAR(moving_truth.twist.twist.linear.x, 0.5, 0.01);
   EXPECT_NEAR(moving_truth.twist.twist.angular.z, 0.0, 1e-9);
   // distance_noise 0.01 m/sqrt(m): per 20 ms interval (0.01 m) the speed's variance is
-  // 1e-4 x 0.01 / 0.02² = 2.5e-3 (m/s)², plus the 1e-6 floor.
-  EXPECT_NEAR(moving_odom.twist.covariance[0], 2.5e-3, 0.5e-3);
+  // 1e-4 x 0.01 / 0.02² = 2.5e-3 (m/s)², plus the 1e-6 floor. It is computed from the measured
+  // (noisy) distance of the interval, whose own std is 10 % of it: 4 σ is 1e-3 (0.5e-3 failed
+  // once in about 20 runs, 3.0e-3 measured).
+  EXPECT_NEAR(moving_odom.twist.covariance[0], 2.5e-3, 1.0e-3);
   EXPECT_GT(moving_odom.twist.covariance[35], 0.0);
   EXPECT_EQ(moving_odom.twist.covariance[14], 1e6);
   cmd.publish(geometry_msgs::Twist());

@@ -211,7 +211,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   EXPECT_EQ(p.covariance[14], 1e6);
 
   // A frame without a heading fix (an unrelated scene): the heading-aided odometry alone is still
-  // published, with a larger covariance, up to mu_max_unaided_distance (3 m) since the last fix.
+  // published, with a larger covariance, up to max_unaided_distance (3 m) since the last fix.
   const double fixed_variance = p.covariance[0];
   auto unrelatedFrame = [&](double stamp, double odom_x) {
     publishOdometryAround(odom_pub, stamp, odom_x);

@@ -176,6 +176,35 @@ TEST(PlanarWorld, LoaderNamesTheBadField) {
   std::filesystem::remove_all(dir);
 }
 
+// Covered-camera boxes: loaded, looked up by the base's position, refused when inverted or NaN.
+TEST(PlanarWorld, CameraCoveredRegions) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "htr_world_covered_test";
+  std::filesystem::create_directories(dir);
+  cv::imwrite((dir / "t.png").string(), colourTexture(3));
+  auto write = [&](const std::string& covered) {
+    std::ofstream((dir / "w.yaml").string())
+        << "format_version: 1\ncamera_covered:\n" << covered
+        << "walls:\n  - {start: [0, 0], end: [2, 0], height: 2, texture: t.png, texture_size: [1, 1]}\n";
+    return loadPlanarWorld((dir / "w.yaml").string());
+  };
+  const auto world = write("  - {name: hand, min: [1, 0.5], max: [3, 1.5]}\n");
+  ASSERT_TRUE(world.isOk()) << world.status().toString();
+  ASSERT_EQ(world->camera_covered.size(), 1u);
+  EXPECT_EQ(world->camera_covered[0].name, "hand");
+  EXPECT_TRUE(world->cameraCoveredAt(Eigen::Vector2d(2.0, 1.0)));
+  EXPECT_TRUE(world->cameraCoveredAt(Eigen::Vector2d(1.0, 0.5)));
+  EXPECT_FALSE(world->cameraCoveredAt(Eigen::Vector2d(0.9, 1.0)));
+  EXPECT_FALSE(world->cameraCoveredAt(Eigen::Vector2d(2.0, 1.6)));
+  const auto inverted = write("  - {name: hand, min: [3, 0.5], max: [1, 1.5]}\n");
+  ASSERT_FALSE(inverted.isOk());
+  EXPECT_NE(inverted.status().message().find("camera_covered[0] (hand): min must be below max"), std::string::npos)
+      << inverted.status().message();
+  const auto nan = write("  - {min: [.nan, 0.5], max: [1, 1.5]}\n");
+  ASSERT_FALSE(nan.isOk());
+  EXPECT_NE(nan.status().message().find("camera_covered[0].min[0]"), std::string::npos) << nan.status().message();
+  std::filesystem::remove_all(dir);
+}
+
 TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
   // A full circle returns to the start.
   Pose2D pose(1.0, 2.0, 0.3);

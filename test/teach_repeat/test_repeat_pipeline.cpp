@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <vector>
 
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
@@ -76,6 +77,66 @@ TEST_F(RepeatPipelineTest, FastHdPosesPassTheOdometryGateUntilTheOdometryDisagre
   EXPECT_EQ(pipeline->statistics().frames, 9u);
 }
 
+// fast_hd, frames without a pose (a covered camera): the tracked keyframe follows the odometry
+// from the last accepted pose, and after search_all_after failures every keyframe is tried; a
+// search that finds nothing leaves the tracking where it was.
+TEST_F(RepeatPipelineTest, LostFramesFollowTheOdometryAndSearchTheWholeRoute) {
+  RepeatPipelineOptions options;
+  options.localization.neighbour_search = 0;
+  options.search_all_after = 4;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  const cv::Mat covered(480, 640, CV_8UC1, cv::Scalar(90));
+  double stamp = 400.0;
+  auto frame = [&](double s, bool seen) {
+    stamp += 0.1;
+    const PlanarPose camera_pose = pathCamera(s);
+    EXPECT_TRUE(pipeline->addOdometry(stamp, cameraAxesToRep103(camera_pose)).isOk());
+    return pipeline->processFrame(stamp, seen ? wall_->imageAt(camera_pose) : covered, camera());
+  };
+  ASSERT_TRUE(frame(0.0, true).pose);
+  EXPECT_EQ(pipeline->localizer().trackedKeyframe(), 0);
+  // Covered for 1 m: no pose, but the search moves along the route with the odometry.
+  for (int i = 1; i <= 4; ++i) EXPECT_FALSE(frame(0.25 * i, false).pose);
+  EXPECT_GE(pipeline->localizer().trackedKeyframe(), 3);
+  EXPECT_EQ(pipeline->statistics().searches_all, 0u);
+  const int followed = pipeline->localizer().trackedKeyframe();
+  // After four failures in a row the next frame searches every keyframe; covered, it finds none
+  // and leaves the tracking as it was.
+  EXPECT_FALSE(frame(1.0, false).pose);
+  EXPECT_EQ(pipeline->statistics().searches_all, 1u);
+  EXPECT_EQ(pipeline->statistics().found_by_search_all, 0u);
+  EXPECT_EQ(pipeline->localizer().trackedKeyframe(), followed);
+  // Uncovered after eight failures: the second whole-route search finds the pose.
+  for (int i = 0; i < 3; ++i) EXPECT_FALSE(frame(1.0, false).pose);
+  const RepeatFrameResult back = frame(1.0, true);
+  ASSERT_TRUE(back.pose) << back.status.toString();
+  EXPECT_EQ(pipeline->statistics().searches_all, 2u);
+  EXPECT_EQ(pipeline->statistics().found_by_search_all, 1u);
+  EXPECT_EQ(pipeline->statistics().failures_in_a_row, 0u);
+  const Pose2D truth = cameraAxesToRep103(pathCamera(1.0));
+  EXPECT_NEAR(back.pose->x, truth.x, 0.02);
+  EXPECT_NEAR(back.pose->y, truth.y, 0.02);
+}
+
+// Without following the odometry the search stays at the keyframe where the camera was covered.
+TEST_F(RepeatPipelineTest, WithoutFollowingTheOdometryTheSearchStaysBehind) {
+  RepeatPipelineOptions options;
+  options.follow_odometry_distance = 0.0;
+  options.search_all_after = 0;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk());
+  const cv::Mat covered(480, 640, CV_8UC1, cv::Scalar(90));
+  ASSERT_TRUE(pipeline->addOdometry(500.0, cameraAxesToRep103(pathCamera(0.0))).isOk());
+  ASSERT_TRUE(pipeline->processFrame(500.0, wall_->imageAt(pathCamera(0.0)), camera()).pose);
+  for (int i = 1; i <= 4; ++i) {
+    ASSERT_TRUE(pipeline->addOdometry(500.0 + 0.1 * i, cameraAxesToRep103(pathCamera(0.25 * i))).isOk());
+    EXPECT_FALSE(pipeline->processFrame(500.0 + 0.1 * i, covered, camera()).pose);
+  }
+  EXPECT_EQ(pipeline->localizer().trackedKeyframe(), 0);
+  EXPECT_EQ(pipeline->statistics().searches_all, 0u);
+}
+
 // The μ loop: odometry with a heading bias of 0.03 rad/m, corrected frame by frame by μ through
 // the keyframe wall's model; the filter's prediction guides the next frame's line matching and
 // moves the tracked keyframe on. The published heading stays far closer to the truth than the
@@ -139,12 +200,12 @@ TEST_F(RepeatPipelineTest, MuLoopWithLineLandmarksCorrectsTheOdometryHeading) {
 }
 
 // μ mode, frames without a fix: the filter carries the pose on odometry alone (its covariance
-// growing) while within mu_max_unaided_distance; 0 means never.
+// growing) while within max_unaided_distance; 0 means never.
 TEST_F(RepeatPipelineTest, MuFramesWithoutAFixUseTheOdometryWithinTheDistanceAllowed) {
   for (const double allowed : {3.0, 0.0}) {
     RepeatPipelineOptions options;
     options.localization.mode = RepeatMode::kMu;
-    options.mu_max_unaided_distance = allowed;
+    options.max_unaided_distance = allowed;
     auto pipeline = RepeatPipeline::create(route(), options);
     ASSERT_TRUE(pipeline.isOk());
     std::optional<Eigen::Matrix3d> last_covariance;
@@ -168,7 +229,7 @@ TEST_F(RepeatPipelineTest, MuFramesWithoutAFixUseTheOdometryWithinTheDistanceAll
       EXPECT_GT(blind.covariance->trace(), last_covariance->trace());
     } else {
       EXPECT_FALSE(blind.pose);
-      EXPECT_NE(blind.warning.find("mu_max_unaided_distance is 0"), std::string::npos) << blind.warning;
+      EXPECT_NE(blind.warning.find("max_unaided_distance is 0"), std::string::npos) << blind.warning;
     }
   }
 }
@@ -206,7 +267,7 @@ TEST_F(RepeatPipelineTest, BadInputIsRefusedWithAReason) {
   off_route.start_keyframe = 6;
   EXPECT_EQ(RepeatPipeline::create(route(), off_route).status().code(), StatusCode::kInvalidInput);
   RepeatPipelineOptions negative;
-  negative.mu_max_unaided_distance = -1.0;
+  negative.max_unaided_distance = -1.0;
   EXPECT_EQ(RepeatPipeline::create(route(), negative).status().code(), StatusCode::kInvalidInput);
 }
 
@@ -240,4 +301,175 @@ TEST_F(RepeatPipelineTest, ReconfigureKeepsTheTrackedKeyframe) {
   bad.min_inliers = 2;
   EXPECT_EQ(pipeline->reconfigure(bad).code(), StatusCode::kInvalidInput);
   EXPECT_EQ(pipeline->options().localization.min_inliers, mu.min_inliers);
+}
+
+// hybrid: one filter takes the Fast-HD pose of every frame (the synthetic route has a plane at
+// every keyframe) and the μ fixes where the lines give them; the published pose is the filter's,
+// its covariance no larger than a single Fast-HD pose's, and the heading stays far closer to the
+// truth than the odometry's.
+TEST_F(RepeatPipelineTest, HybridFusesFastHdAndMuInOneFilter) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  EXPECT_TRUE(pipeline->hybridNotes().empty()) << pipeline->hybridNotes();
+  ASSERT_NE(pipeline->lineLocalizer(), nullptr);
+  int fast_hd_fixes = 0, mu_fixes = 0, ok = 0;
+  double odometry_error = 0.0, filter_error = 0.0;
+  driveWithBiasedOdometry(*pipeline, [&](int step, const Pose2D& truth, const Pose2D& odom, const RepeatFrameResult& result) {
+    ASSERT_TRUE(result.pose && result.covariance) << step << ": " << result.status.toString() << " " << result.warning;
+    if (result.fixes.find("fast_hd") != std::string::npos) ++fast_hd_fixes;
+    if (result.fixes.find("mu") != std::string::npos) ++mu_fixes;
+    if (result.integrity.level == IntegrityLevel::kOk) ++ok;
+    if (result.estimate && result.estimate->has_pose && result.estimate->covariance_known) {
+      // The filter's position variance: at most the measurement's (it adds the odometry's).
+      const double filter_variance = result.covariance->topLeftCorner<2, 2>().trace();
+      const double measured_variance = result.estimate->covariance.topLeftCorner<2, 2>().trace();
+      EXPECT_LE(filter_variance, measured_variance * 1.0001) << step;
+    }
+    odometry_error = yawError(odom, truth);
+    filter_error = yawError(*result.pose, truth);
+    EXPECT_LT(std::hypot(result.pose->x - truth.x, result.pose->y - truth.y), 0.02) << step;
+    EXPECT_LT(filter_error, 0.5 * M_PI / 180.0) << step;
+  });
+  EXPECT_GE(fast_hd_fixes, 12);
+  EXPECT_GE(mu_fixes, 1);
+  EXPECT_GE(ok, 12);
+  EXPECT_GT(odometry_error, 0.035);
+  EXPECT_LT(filter_error, 0.2 * odometry_error);
+}
+
+// hybrid, the camera covered: the filter carries the pose on odometry (its covariance growing),
+// the integrity turns DEGRADED when no fix came for degraded_time_without_fix and LOST (no pose)
+// beyond max_unaided_distance; uncovered, the search finds the route again where the odometry
+// says the robot now is, and the pose is OK again.
+TEST_F(RepeatPipelineTest, HybridBridgesACoveredCameraAndRecovers) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  options.localization.neighbour_search = 0;  // only the keyframe the filter's pose is at
+  options.max_unaided_distance = 0.55;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  const cv::Mat covered(480, 640, CV_8UC1, cv::Scalar(90));
+  double stamp = 600.0;
+  auto frame = [&](double s, bool seen) {
+    stamp += 0.5;  // a slow robot: 0.2 m/s
+    const PlanarPose camera_pose = pathCamera(s);
+    EXPECT_TRUE(pipeline->addOdometry(stamp, cameraAxesToRep103(camera_pose)).isOk());
+    return pipeline->processFrame(stamp, seen ? wall_->imageAt(camera_pose) : covered, camera());
+  };
+  const RepeatFrameResult first = frame(0.0, true);
+  ASSERT_TRUE(first.pose && first.covariance) << first.status.toString();
+  EXPECT_EQ(first.integrity.level, IntegrityLevel::kOk) << first.integrity.reason;
+  Eigen::Matrix3d previous = *first.covariance;
+  std::vector<IntegrityLevel> levels;
+  for (int i = 1; i <= 6; ++i) {
+    const RepeatFrameResult blind = frame(0.1 * i, false);
+    EXPECT_FALSE(blind.status.isOk());
+    EXPECT_TRUE(blind.fixes.empty());
+    levels.push_back(blind.integrity.level);
+    if (0.1 * i <= 0.55) {
+      ASSERT_TRUE(blind.pose && blind.covariance) << i << ": " << blind.warning;
+      EXPECT_NEAR(blind.pose->y, cameraAxesToRep103(pathCamera(0.1 * i)).y, 0.01);  // exact odometry here
+      EXPECT_GT(blind.covariance->trace(), previous.trace());
+      previous = *blind.covariance;
+    } else {
+      EXPECT_FALSE(blind.pose);
+      EXPECT_EQ(blind.integrity.level, IntegrityLevel::kLost);
+      EXPECT_NE(blind.integrity.reason.find("no pose"), std::string::npos) << blind.integrity.reason;
+    }
+  }
+  // 0.5 s, 1.0 s: OK; from 2.5 s without a fix: DEGRADED; beyond max_unaided_distance: LOST.
+  EXPECT_EQ(levels[0], IntegrityLevel::kOk);
+  EXPECT_EQ(levels[4], IntegrityLevel::kDegraded);
+  EXPECT_EQ(levels[5], IntegrityLevel::kLost);
+  // Uncovered 0.8 m on: the filter's pose (carried by the odometry beyond the distance allowed)
+  // moved the search to the keyframe there.
+  const RepeatFrameResult back = frame(0.8, true);
+  ASSERT_TRUE(back.pose) << back.status.toString();
+  EXPECT_EQ(back.fixes.substr(0, 7), "fast_hd");
+  EXPECT_NEAR(back.pose->y, cameraAxesToRep103(pathCamera(0.8)).y, 0.02);
+  EXPECT_EQ(back.integrity.level, IntegrityLevel::kOk) << back.integrity.reason;
+}
+
+// hybrid, the odometry jumps 0.5 m (a kidnapped robot, seen from the other side): the Fast-HD
+// poses are refused by the odometry gate and the integrity says DEGRADED at once; when
+// gate_switch_after refused poses agree with each other the filter starts again from them.
+TEST_F(RepeatPipelineTest, HybridAfterAKidnappingIsDegradedUntilVisionTakesOver) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk());
+  double stamp = 700.0;
+  for (int step = 0; step < 4; ++step) {
+    stamp += 0.1;
+    const PlanarPose camera_pose = pathCamera(0.1 * step);
+    ASSERT_TRUE(pipeline->addOdometry(stamp, cameraAxesToRep103(camera_pose)).isOk());
+    const auto result = pipeline->processFrame(stamp, wall_->imageAt(camera_pose), camera());
+    ASSERT_TRUE(result.pose);
+    EXPECT_EQ(result.integrity.level, IntegrityLevel::kOk) << result.integrity.reason;
+  }
+  const Pose2D jump(0.0, 0.5, 0.0);
+  int degraded = 0, step = 4;
+  RepeatFrameResult result;
+  for (; step < 14; ++step) {
+    stamp += 0.1;
+    const PlanarPose camera_pose = pathCamera(0.1 * step);
+    ASSERT_TRUE(pipeline->addOdometry(stamp, cameraAxesToRep103(camera_pose).compose(jump)).isOk());
+    result = pipeline->processFrame(stamp, wall_->imageAt(camera_pose), camera());
+    ASSERT_TRUE(result.pose);
+    const Pose2D truth = cameraAxesToRep103(camera_pose);
+    const double error = std::hypot(result.pose->x - truth.x, result.pose->y - truth.y);
+    if (error < 0.03) break;  // the filter started again from vision
+    EXPECT_NE(result.integrity.level, IntegrityLevel::kOk) << step << ": " << error << " m off";
+    ++degraded;
+  }
+  EXPECT_LT(step, 14) << "vision never took over";
+  // gate_switch_after 5: the fifth refused pose is the new reference.
+  EXPECT_GE(degraded, 3);
+  EXPECT_LE(degraded, 5);
+  EXPECT_EQ(result.fixes.substr(0, 7), "fast_hd");
+}
+
+// hybrid on a route without planes runs on μ alone and on a route without lines on Fast-HD alone,
+// saying what is missing; a route with neither is refused.
+TEST_F(RepeatPipelineTest, HybridRunsOnWhatTheRouteHas) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  Route without_planes = route();
+  for (auto& keyframe : without_planes.keyframes) keyframe.plane.reset();
+  auto mu_only = RepeatPipeline::create(without_planes, options);
+  ASSERT_TRUE(mu_only.isOk()) << mu_only.status().toString();
+  EXPECT_NE(mu_only->hybridNotes().find("no planes"), std::string::npos) << mu_only->hybridNotes();
+  EXPECT_EQ(mu_only->lineLocalizer(), nullptr);
+  int mu_fixes = 0;
+  driveWithBiasedOdometry(*mu_only, [&](int, const Pose2D&, const Pose2D&, const RepeatFrameResult& result) {
+    if (result.fixes == "mu") ++mu_fixes;
+    EXPECT_EQ(result.fixes.find("fast_hd"), std::string::npos);
+  });
+  EXPECT_GE(mu_fixes, 8);
+
+  const std::string copy = test_support::makeTemporaryDirectory("htr_route_without_lines");
+  std::filesystem::copy(directory_, copy, std::filesystem::copy_options::recursive | std::filesystem::copy_options::overwrite_existing);
+  for (const auto& file : std::filesystem::recursive_directory_iterator(copy)) {
+    if (file.path().string().find(".lines.yml") != std::string::npos) std::ofstream(file.path()) << "lines: []\n";
+  }
+  auto copied = loadRoute(copy);
+  ASSERT_TRUE(copied.isOk()) << copied.status().toString();
+  auto fast_hd_only = RepeatPipeline::create(*copied, options);
+  ASSERT_TRUE(fast_hd_only.isOk()) << fast_hd_only.status().toString();
+  EXPECT_NE(fast_hd_only->hybridNotes().find("no mu fixes"), std::string::npos) << fast_hd_only->hybridNotes();
+  int pose_fixes = 0;
+  driveWithBiasedOdometry(*fast_hd_only, [&](int, const Pose2D&, const Pose2D&, const RepeatFrameResult& result) {
+    if (result.fixes == "fast_hd") ++pose_fixes;
+  });
+  EXPECT_GE(pose_fixes, 12);
+
+  Route neither = *copied;
+  for (auto& keyframe : neither.keyframes) keyframe.plane.reset();
+  const auto refused = RepeatPipeline::create(neither, options);
+  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(refused.status().message().find("neither planes nor vertical lines"), std::string::npos)
+      << refused.status().toString();
+  std::filesystem::remove_all(copy);
 }

@@ -19,7 +19,10 @@
 
 namespace homography_teach_repeat {
 
-enum class FollowState { kWaiting, kFollowing, kStopped, kFinished };
+enum class FollowState { kWaiting, kFollowing, kStopped, kSearching, kFinished };
+// How far the localization's pose can be trusted (repeat_node's ~integrity; the control module
+// has its own enum: it depends on geometry only).
+enum class PoseTrust { kOk, kDegraded, kLost };
 std::string toString(FollowState state);
 
 struct RouteFollowerOptions {
@@ -62,6 +65,15 @@ struct RouteFollowerOptions {
   double final_turn_gain = 1.5;      // [1/s]
   bool align_final_heading = true;
   double final_heading_tolerance = 0.02;
+  // Integrity (setTrust): a DEGRADED pose caps the linear and angular velocity at
+  // degraded_speed_factor (0, 1] of the limits; a LOST one stops the robot, and after
+  // lost_search_delay [s, >= 0] of LOST it turns in place to look for a taught view: lost_search_angle
+  // [rad, >= 0; 0: it stands] to each side of where it stopped at lost_search_velocity [rad/s, > 0]
+  // (timed, not steered by the pose it does not trust; never a linear motion).
+  double degraded_speed_factor = 0.5;
+  double lost_search_delay = 1.0;
+  double lost_search_angle = 0.6;
+  double lost_search_velocity = 0.3;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -90,6 +102,9 @@ class RouteFollower {
   // good fix. Ignored when a fix at least as new has arrived already (repeat_node's mu mode still
   // publishes a pose for a frame without a heading fix, and the two topics may arrive in any order).
   void setLost(const std::string& reason, double stamp = std::numeric_limits<double>::infinity());
+  // The integrity of the pose at `stamp` [s] with its reason (ignored when older than the last one).
+  // `search_helps` false (the camera is silent): a LOST robot stands instead of turning to look.
+  void setTrust(PoseTrust trust, const std::string& reason, double stamp, bool search_helps = true);
 
   // One control step at time `now` [s] with obstacle points in the robot frame.
   FollowOutput update(double now, double dt, const std::vector<Eigen::Vector2d>& obstacles = {});
@@ -104,11 +119,16 @@ class RouteFollower {
   const RouteFollowerOptions& options() const { return options_; }
 
  private:
-  FollowOutput stop(FollowState state, const std::string& reason);
+  FollowOutput stop(FollowState state, const std::string& reason);  // zero command, controller at rest
+  FollowOutput report(FollowState state, const std::string& reason) const;  // the output without a command
   FollowOutput following(const VelocityCommand& command, double distance) const;
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
   int lapOf(std::size_t position) const;
+  // LOST: the robot stands, then turns in place to each side (lost_search_*).
+  FollowOutput searchInPlace(double now, double dt);
+  // The controller's limits for the current trust (DEGRADED: scaled).
+  void applyTrustToLimits();
   double toleranceOf(std::size_t position) const;
 
   std::vector<Pose2D> goals_;
@@ -125,6 +145,11 @@ class RouteFollower {
   Pose2D pose_;
   double stamp_ = 0.0;
   double heading_offset_ = 0.0;
+  PoseTrust trust_ = PoseTrust::kOk;
+  std::string trust_reason_;
+  bool search_helps_ = true;
+  double trust_stamp_ = -std::numeric_limits<double>::infinity();
+  double lost_since_ = std::numeric_limits<double>::quiet_NaN();  // [s] when LOST began (NaN: not lost)
 };
 
 }  // namespace homography_teach_repeat

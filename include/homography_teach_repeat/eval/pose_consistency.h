@@ -59,4 +59,27 @@ class PoseConsistency {
   std::size_t rejected_ = 0;
 };
 
+// Does the integrity flag say when a pose is wrong? Each published pose, flagged (DEGRADED or LOST)
+// or not, against its error from the ground truth: a pose more than `wrong_position` [m] or
+// `wrong_heading` [rad] off is wrong. A useful monitor flags nearly every wrong pose (detection)
+// and few right ones (false alarms) (docs/reliability.md, "Integrity").
+struct IntegritySummary {
+  std::size_t poses = 0, wrong = 0, wrong_flagged = 0, right = 0, right_flagged = 0;
+  double detection = 0.0;    // wrong_flagged / wrong (1 when no pose is wrong)
+  double false_alarm = 0.0;  // right_flagged / right (0 when no pose is right)
+};
+
+class IntegrityScore {
+ public:
+  explicit IntegrityScore(double wrong_position = 0.3, double wrong_heading = 5.0 * 3.14159265358979323846 / 180.0)
+      : wrong_position_(wrong_position), wrong_heading_(wrong_heading) {}
+  // kInvalidInput (not counted) for a non-finite pose.
+  Status add(const Pose2D& estimate, bool flagged, const Pose2D& truth);
+  IntegritySummary summary() const;
+
+ private:
+  double wrong_position_, wrong_heading_;
+  IntegritySummary counts_;
+};
+
 }  // namespace homography_teach_repeat

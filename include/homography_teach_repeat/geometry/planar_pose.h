@@ -85,6 +85,11 @@ class CameraMount {
   // assumes the camera moves in its own XZ plane. Throws std::invalid_argument otherwise, naming
   // the measured tilt.
   static CameraMount fromExtrinsic(const Eigen::Isometry3d& base_T_optical, double max_tilt_rad);
+  // The angle [rad] between the optical y axis (down) and the downward vertical of base_link: 0
+  // for a level camera; NaN for a non-finite or non-orthonormal extrinsic.
+  static double tiltOf(const Eigen::Isometry3d& base_T_optical);
+  // The optical axis' elevation [rad] above base_link's horizontal plane (> 0: looking up).
+  static double elevationOf(const Eigen::Isometry3d& base_T_optical);
 
   const Pose2D& forwardFrame() const { return forward_frame_; }
 

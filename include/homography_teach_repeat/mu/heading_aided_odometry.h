@@ -19,6 +19,10 @@
 //    (line_landmarks.h, docs/math.md §4.8), each current line a bearing of the robot pose: one
 //    consensus on the heading picks the associations, one iterated update takes them all. Where
 //    the lines stand at many depths (a street) no single wall models them.
+//  - correctWithPose: a full pose fix (a Fast-HD pose with its covariance, hybrid mode; docs/math.md
+//    §7.1), the update with H = I. Vetted by the caller (the odometry gate), not here.
+// Every fix tried leaves its normalized innovation squared for the integrity monitor
+// (takeInnovation; docs/math.md §7.2).
 // A μ fix must be confirmed by the previous frame's fix against the same keyframe (max_mu_step_px)
 // and is refused when its innovation exceeds `innovation_gate` standard deviations (a wrong line
 // association gave fixes 38° and 97° off in the simulator); `refused_before_reset` refusals in a
@@ -30,6 +34,7 @@
 #include <Eigen/Core>
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "homography_teach_repeat/features/vertical_lines.h"
@@ -110,6 +115,14 @@ std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::o
 // μ the filter predicts, and it tells the line matcher where the reference lines should be.
 Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
 
+// The normalized innovation squared of one fix: νᵀ S⁻¹ ν with `dof` components (a consistent
+// filter gives a mean of `dof`), and whether the fix was taken.
+struct FilterInnovation {
+  double nis = 0.0;
+  int dof = 1;
+  bool accepted = false;
+};
+
 class HeadingAidedOdometry {
  public:
   // Throws std::invalid_argument on invalid options.
@@ -118,6 +131,10 @@ class HeadingAidedOdometry {
   // The robot is at `route_pose` while its odometry reads `odom_pose`. kInvalidInput on
   // non-finite input.
   Status align(const Pose2D& route_pose, const Pose2D& odom_pose);
+  // The same with a known (x, y, yaw) covariance (a first Fast-HD pose, or one the odometry gate
+  // took as its new reference); kInvalidInput also for a covariance that is not symmetric positive
+  // definite.
+  Status align(const Pose2D& route_pose, const Pose2D& odom_pose, const Eigen::Matrix3d& covariance);
   bool aligned() const { return aligned_; }
 
   // A μ fix taken when the odometry read `odom_pose`. kInvalidInput on non-finite input or a bad
@@ -137,6 +154,16 @@ class HeadingAidedOdometry {
   // (a row of windows); refusals in a row widen the covariance as the innovation gate's do.
   // kInvalidInput: non-finite input, a landmark without its reference line.
   Expected<int> correctWithLineLandmarks(const LineLandmarkObservation& observation, const Pose2D& odom_pose);
+
+  // A pose fix: base_link at `measured` (route frame) with the (x, y, yaw) `measurement_covariance`
+  // when the odometry read `odom_pose` (docs/math.md §7.1). Returns the normalized innovation
+  // squared (3 degrees of freedom). kInvalidInput: non-finite input or a covariance that is not
+  // symmetric positive definite; kNoConsensus: not aligned.
+  Expected<double> correctWithPose(const Pose2D& measured, const Eigen::Matrix3d& measurement_covariance,
+                                   const Pose2D& odom_pose);
+  // The innovation of the last fix tried since the last call (nullopt: none; a line landmark fix
+  // leaves its lines' innovation against the prior), for the integrity monitor.
+  std::optional<FilterInnovation> takeInnovation() { return std::exchange(last_innovation_, std::nullopt); }
 
   // The robot pose in the route frame for the odometry reading `odom_pose`, and its (x, y, yaw)
   // covariance. kNoConsensus when not aligned, kInvalidInput on non-finite input.
@@ -177,6 +204,7 @@ class HeadingAidedOdometry {
   Pose2D last_odom_;
   double distance_since_fix_ = 0.0;  // [m]
   int refused_in_a_row_ = 0;
+  std::optional<FilterInnovation> last_innovation_;
 };
 
 }  // namespace homography_teach_repeat

@@ -3,11 +3,13 @@
 //
 // Subscribes: pose (geometry_msgs/PoseWithCovarianceStamped: repeat_node's ~pose, route frame),
 //             heading_correction (homography_teach_repeat/HeadingCorrectionStamped: ok = false
-//             means localization failed: stop), scan (sensor_msgs/LaserScan, optional repulsion;
-//             the scanner is assumed at base_link)
+//             means localization failed: stop), integrity (homography_teach_repeat/Integrity:
+//             DEGRADED slows down, LOST stops and then turns in place to look for a taught view),
+//             scan (sensor_msgs/LaserScan, optional repulsion; the scanner is assumed at base_link)
 // Publishes:  cmd_vel (geometry_msgs/Twist) at control_rate: zero when waiting, when the pose is
 //             older than pose_timeout, when localization is lost, on NaN input and at the end of
-//             the route; ~state (std_msgs/String: waiting | following | stopped | finished);
+//             the route; ~state (std_msgs/String: waiting | following | stopped | searching |
+//             finished);
 //             /diagnostics
 // Action:     repeat_route (homography_teach_repeat/RepeatRouteAction): follow a route from a
 //             start to an end keyframe for some laps; feedback at the control rate (progress,
@@ -36,6 +38,7 @@
 
 #include "homography_teach_repeat/ControllerConfig.h"
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
+#include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/RepeatRouteAction.h"
 #include "homography_teach_repeat/control/route_follower.h"
 
@@ -51,6 +54,7 @@ class ControllerNode {
  private:
   void onPose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& pose);
   void onHeading(const HeadingCorrectionStampedConstPtr& heading);
+  void onIntegrity(const IntegrityConstPtr& integrity);
   void onScan(const sensor_msgs::LaserScanConstPtr& scan);
   void onTimer(const ros::TimerEvent& event);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -65,7 +69,7 @@ class ControllerNode {
   ros::NodeHandle private_nh_;
   double control_period_ = 0.05;
   double scan_timeout_ = 0.5;
-  double stop_abort_timeout_ = 10.0;
+  double stop_abort_timeout_ = 20.0;
   bool shutdown_when_finished_ = false;  // scripts: exit at the end of the route
   std::string default_directory_;
   RouteFollowerOptions options_;  // start-up / reconfigured values; goals override the sequence
@@ -77,11 +81,12 @@ class ControllerNode {
   double stopped_since_ = -1.0;  // [s] when the robot stopped during an action goal (-1: not)
   int reference_index_ = -1;     // from repeat_node's heading correction
   unsigned inliers_ = 0;
+  std::string integrity_, integrity_reason_;  // the last ~integrity of repeat_node
   std::vector<Eigen::Vector2d> obstacles_;
   ros::Time obstacles_stamp_;
 
   ros::Subscriber pose_subscriber_;
-  ros::Subscriber heading_subscriber_;
+  ros::Subscriber heading_subscriber_, integrity_subscriber_;
   ros::Subscriber scan_subscriber_;
   ros::Publisher command_publisher_;
   ros::Publisher state_publisher_;

@@ -3,7 +3,7 @@
 // call per callback. Topics, parameters and errors: docs/nodes/repeat_node.md.
 //
 // Subscribes: camera/image_raw + camera/camera_info (image_transport::CameraSubscriber), odom.
-// Publishes:  ~pose (PoseWithCovarianceStamped, map_frame), ~heading_correction,
+// Publishes:  ~pose (PoseWithCovarianceStamped, map_frame), ~heading_correction, ~integrity,
 //             ~route_markers (latched), ~debug_image (while subscribed), /diagnostics,
 //             tf map_frame -> odom_frame (publish_tf).
 #pragma once
@@ -15,6 +15,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <std_msgs/Header.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <opencv2/core.hpp>
@@ -42,6 +43,8 @@ class RepeatNode {
   void publish(const sensor_msgs::ImageConstPtr& image, const RepeatFrameResult& result, const Expected<cv::Mat>& cv_image);
   void publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current, const RepeatFrameResult& result);
   void publishMarkers(int current_keyframe);
+  void publishIntegrity(const std_msgs::Header& header, const IntegrityReport& report, const std::string& fixes,
+                        bool camera_silent);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
   // Seconds (ROS time) since the last image, or since the start when none came yet; mutex_ held.
   double cameraSilence() const;
@@ -60,12 +63,13 @@ class RepeatNode {
   cv::Mat debug_reference_;  // cached reference keyframe image (BGR)
   // Arrival (ROS time: simulated under use_sim_time) of the last image, and of the node's start.
   ros::Time last_image_arrival_, start_time_;
+  IntegrityReport last_integrity_;
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
   image_transport::Publisher debug_publisher_;
   ros::Subscriber odometry_subscriber_;
-  ros::Publisher pose_publisher_, heading_publisher_, marker_publisher_;
+  ros::Publisher pose_publisher_, heading_publisher_, marker_publisher_, integrity_publisher_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;

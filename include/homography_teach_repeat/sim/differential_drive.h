@@ -90,6 +90,8 @@ class DifferentialDriveSim {
   const Eigen::Matrix3d& odometryCovariance() const { return covariance_; }
   // Teleport (tests, resets): truth and odometry to the given poses.
   void reset(const Pose2D& truth, const Pose2D& odometry);
+  // Carried elsewhere (a kidnapping): the truth moves, the odometry does not notice.
+  void teleport(const Pose2D& truth) { truth_ = truth; }
 
  private:
   OdometryErrorModel errors_;

@@ -9,6 +9,8 @@
 //   floor_colour: [B, G, R]          # 0..255, optional (default [70, 70, 70])
 //   ceiling_colour: [B, G, R]        # optional (default [200, 200, 200])
 //   illumination: {amplitude: 0.2, period: 60.0}   # optional: gain 1 + a sin(2 pi t / period)
+//   camera_covered:                  # optional: where the camera sees nothing (a hand or a sheet over
+//     - {name: hand, min: [x, y], max: [x, y]}   # the lens) while base_link is inside the box [m]
 //   walls:
 //     - name: north                  # optional, used in messages
 //       start: [x, y]                # [m]
@@ -49,16 +51,30 @@ struct Illumination {
   double gainAt(double time) const;
 };
 
+// A box of the floor (min < max, world frame [m]) where the camera is covered.
+struct CoveredRegion {
+  std::string name;
+  Eigen::Vector2d min = Eigen::Vector2d::Zero();
+  Eigen::Vector2d max = Eigen::Vector2d::Zero();
+  bool contains(const Eigen::Vector2d& position) const {
+    return (position.array() >= min.array()).all() && (position.array() <= max.array()).all();
+  }
+};
+
 struct PlanarWorld {
   std::vector<Wall> walls;
+  std::vector<CoveredRegion> camera_covered;
   cv::Vec3b floor_colour{70, 70, 70};
   cv::Vec3b ceiling_colour{200, 200, 200};
   Illumination illumination;
   std::string source;  // file it was loaded from (for messages)
 
   // Checks every wall (finite end points, non-zero length, height and texture size > 0, a
-  // texture image) and the illumination. Status kInvalidInput naming the wall and field.
+  // texture image), the illumination and the covered regions (finite, min < max). Status
+  // kInvalidInput naming the wall or region and field.
   Status validate() const;
+  // Whether the camera of a robot whose base_link is at `position` is covered.
+  bool cameraCoveredAt(const Eigen::Vector2d& position) const;
 };
 
 // Loads and validates a world file. Status kInvalidInput naming the file and the field (a missing

@@ -52,6 +52,9 @@ class OdometryGate {
   // Forget the reference (a new run, a relocalization ordered from outside).
   void reset();
   int refusedInARow() const { return candidates_; }
+  // Whether the last check() accepted its pose as a new reference after `switch_after` refusals
+  // (the old reference was the wrong one: a filter on the poses must start again from this one).
+  bool switchedReference() const { return switched_; }
   bool hasReference() const { return !accepted_.empty(); }
   const OdometryGateOptions& options() const { return options_; }
 
@@ -69,6 +72,7 @@ class OdometryGate {
   std::deque<Anchor> accepted_;      // accepted poses within `window` of travel, newest last
   std::optional<Anchor> candidate_;  // the first refused pose of the current run
   int candidates_ = 0;               // consecutive refused poses that agree with each other
+  bool switched_ = false;
 };
 
 }  // namespace homography_teach_repeat

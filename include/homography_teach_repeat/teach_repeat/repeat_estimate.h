@@ -17,9 +17,11 @@
 
 namespace homography_teach_repeat {
 
-enum class RepeatMode { kFastHd, kMu, kClassic };
+// kHybrid: Fast-HD where a keyframe has a plane and μ where it has vertical lines, both fused by
+// one filter on the odometry (RepeatPipeline); a localizer itself runs fast_hd or mu.
+enum class RepeatMode { kFastHd, kMu, kClassic, kHybrid };
 
-// "fast_hd", "mu", "classic"; throws std::invalid_argument naming the accepted values.
+// "fast_hd", "mu", "classic", "hybrid"; throws std::invalid_argument naming the accepted values.
 RepeatMode repeatModeFromString(const std::string& name);
 std::string toString(RepeatMode mode);
 
@@ -31,6 +33,9 @@ struct RepeatOptions {
   HeadingCorrectionOptions heading;
   VerticalLineOptions lines;
   int min_inliers = 15;          // fewer homography inliers: the reference fails
+  // fast_hd/classic: every keyframe must have a plane (the route loads only then). The hybrid
+  // pipeline's point localizer sets it false: keyframes without a plane are not used for poses.
+  bool require_planes = true;
   int neighbour_search = 2;      // keyframes tried on each side of the tracked one
   int max_degraded_frames = 30;  // consecutive frames on a temporary reference
   // fast_hd: the RMS transfer error [px] of the inliers under the homography the estimated pose

@@ -8,7 +8,16 @@
 //    the last accepted pose (OdometryGate; docs/reliability.md).
 //  - mu: the heading-aided odometry (an EKF on the odometry, docs/math.md §4.4-4.5) corrected by
 //    the frame's μ through the keyframe wall's model; the pose is the filter's. Frames without a
-//    fix carry the pose on odometry alone for at most mu_max_unaided_distance metres.
+//    fix carry the pose on odometry alone for at most max_unaided_distance metres.
+//  - hybrid (docs/math.md §7): the same filter takes, frame by frame, what the place offers: the
+//    Fast-HD pose with its covariance where the keyframe has a plane and the pose passes its
+//    checks and the odometry gate (§7.1), the μ fix (or line landmark fix) where it has vertical
+//    lines, both where both exist, the odometry alone in between (within max_unaided_distance).
+//    The published pose and covariance are the filter's. A route without planes runs on μ, one
+//    without lines on Fast-HD (hybridNotes() says what is missing).
+//  - every mode: frames without a fix let the search follow the odometry along the route and,
+//    after search_all_after of them, try every keyframe; the integrity monitor
+//    (integrity_monitor.h) judges every frame's pose.
 // The map -> odom alignment is returned for a node that publishes it as tf.
 #pragma once
 
@@ -23,6 +32,7 @@
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/mu/heading_aided_odometry.h"
+#include "homography_teach_repeat/teach_repeat/integrity_monitor.h"
 #include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
 #include "homography_teach_repeat/teach_repeat/odometry_gate.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
@@ -36,9 +46,22 @@ struct RepeatPipelineOptions {
   std::optional<OdometryGateOptions> odometry_gate = OdometryGateOptions();  // nullopt: no gate
   // The keyframe the robot starts at; -1: found by trying every keyframe on the first image.
   int start_keyframe = 0;
-  // mu mode: how far [m] the filter carries the pose on odometry alone after its last fix; 0:
-  // never (no pose without a fix).
-  double mu_max_unaided_distance = 3.0;
+  // mu and hybrid: how far [m] the filter carries the pose on odometry alone after its last fix;
+  // 0: never (no pose without a fix).
+  double max_unaided_distance = 3.0;
+  // hybrid: also take the μ fix in a frame whose Fast-HD pose was accepted (false: μ only where
+  // there is no pose).
+  bool hybrid_fuse_both = true;
+  IntegrityOptions integrity;
+  // fast_hd/classic, frames without a pose (docs/reliability.md, "Lost and found"):
+  //  - the odometry since the last accepted pose moves the tracked keyframe on, so the search
+  //    follows the robot along the route (the route says where the next keyframes are) for up to
+  //    `follow_odometry_distance` [m, >= 0; 0: never] of travel;
+  //  - after `search_all_after` [>= 0; 0: never] failed frames in a row, and again every that many,
+  //    every keyframe is tried (a wrong tracked keyframe, a start elsewhere); the pose found still
+  //    passes the odometry gate, and a failed search leaves the tracked keyframe as it was.
+  double follow_odometry_distance = 5.0;
+  int search_all_after = 10;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -52,11 +75,17 @@ struct RepeatFrameResult {
   std::optional<Pose2D> map_to_odom;          // route frame -> odometry frame at this frame
   std::string warning;                        // something a user should read (logged throttled)
   std::optional<LocalizeTiming> timing;       // of the localizer, when the frame reached it
+  // The filter modes (mu, hybrid): what corrected it in this frame ("fast_hd", "mu", "lines",
+  // "fast_hd+mu", ...; empty: odometry alone).
+  std::string fixes;
+  IntegrityReport integrity;                  // the verdict on `pose`
 };
 
 // Counters and the last outcome, for diagnostics.
 struct RepeatStatistics {
   unsigned frames = 0, failures = 0, degraded = 0, gated = 0;
+  unsigned failures_in_a_row = 0;
+  unsigned searches_all = 0, found_by_search_all = 0;  // whole-route searches, and those that gave a pose
   int last_inliers = 0;
   int last_keyframe = -1;
   bool last_degraded = false;
@@ -76,14 +105,34 @@ class RepeatPipeline {
   // stay when the route cannot support them (the status says why).
   Status reconfigure(const RepeatOptions& options);
 
+  // The localizer of the mode (hybrid: the Fast-HD one, or the μ one on a route without planes).
   const RepeatLocalizer& localizer() const { return localizer_; }
+  // hybrid: the μ localizer beside the Fast-HD one (nullptr otherwise).
+  const RepeatLocalizer* lineLocalizer() const { return line_localizer_ ? &*line_localizer_ : nullptr; }
+  // hybrid: what the route lacks ("no planes: ...", "no vertical lines: ..."), empty when it has both.
+  const std::string& hybridNotes() const { return hybrid_notes_; }
+  RepeatMode mode() const { return options_.localization.mode; }
   const RepeatPipelineOptions& options() const { return options_; }
   const RepeatStatistics& statistics() const { return statistics_; }
-  const HeadingAidedOdometry& muFilter() const { return mu_filter_; }
+  const HeadingAidedOdometry& filter() const { return filter_; }
 
  private:
-  RepeatPipeline(RepeatLocalizer localizer, const RepeatPipelineOptions& options);
-  RepeatFrameResult fail(RepeatFrameResult result, const Status& status);
+  struct Localizers {
+    RepeatLocalizer primary;
+    std::optional<RepeatLocalizer> lines;  // hybrid with both planes and lines
+    std::string notes;
+  };
+  static Expected<Localizers> createLocalizers(const Route& route, const RepeatOptions& options);
+  RepeatPipeline(Localizers localizers, const RepeatPipelineOptions& options);
+  bool usesFilter() const;  // mu, hybrid
+  bool primaryIsMu() const { return localizer_.options().mode == RepeatMode::kMu; }
+  // hybrid: the whole frame (vision done, the filter corrected and read).
+  RepeatFrameResult processHybridFrame(double stamp, const cv::Mat& image);
+  // The Fast-HD pose of a hybrid frame into the filter; the reason when none was taken.
+  Status fuseHybridPose(double stamp, const Expected<Pose2D>& odom_near_image, const Expected<RepeatEstimate>& estimate,
+                        RepeatFrameResult* result);
+  void recordFix(double stamp, bool accepted, int inliers);
+  void assessIntegrity(double stamp, RepeatFrameResult* result);
   // fast_hd/classic: the visual pose checked against the odometry.
   // `odom`: the odometry at the image stamp (or why there is none).
   Status gate(const Expected<Pose2D>& odom, const RepeatEstimate& estimate, std::string* warning);
@@ -92,18 +141,27 @@ class RepeatPipeline {
   Status correctMuFilter(double stamp, RepeatEstimate* fix);
   // mu, a keyframe with line landmarks: the filter's fix from the current lines.
   Status correctWithLineLandmarks(const Pose2D& odom, RepeatEstimate* fix);
-  // mu, a frame without a fix: the filter alone, within mu_max_unaided_distance.
-  void addUnaidedMuPose(double stamp, RepeatFrameResult* result);
-  Expected<Pose2D> unaidedMuPose(const Pose2D& odom);
-  std::optional<Pose2D> predictedMuPose(double stamp) const;
-  void setMuPose(const Pose2D& pose, RepeatFrameResult* result);
+  // mu/hybrid, a frame without a fix: the filter alone, within max_unaided_distance.
+  void addUnaidedFilterPose(double stamp, RepeatFrameResult* result);
+  Expected<Pose2D> unaidedFilterPose(const Pose2D& odom);
+  std::optional<Pose2D> predictedFilterPose(double stamp) const;
+  void setFilterPose(const Pose2D& pose, RepeatFrameResult* result);
+  // fast_hd/classic, a frame without a pose: the tracked keyframe follows the odometry.
+  void followOdometry(const Expected<Pose2D>& odom);
+  bool searchAllNow() const;
 
   RepeatLocalizer localizer_;
+  std::optional<RepeatLocalizer> line_localizer_;  // hybrid
+  std::string hybrid_notes_;
   RepeatPipelineOptions options_;
+  IntegrityMonitor integrity_;
   bool initialized_ = false;
   OdometryBuffer odometry_;
-  HeadingAidedOdometry mu_filter_;
+  HeadingAidedOdometry filter_;
   std::optional<OdometryGate> odometry_gate_;
+  // fast_hd/classic: the last accepted pose's map -> odom, and the odometry then.
+  std::optional<Pose2D> last_alignment_;
+  std::optional<Pose2D> last_fix_odometry_;
   RepeatStatistics statistics_;
 };
 

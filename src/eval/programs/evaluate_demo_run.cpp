@@ -20,7 +20,9 @@
 // truth at the pose's stamp (interpolated), and whether its covariance is honest
 // (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
 // "heading_sigma_rms_deg", "nees_mean", "nees_median", "nees_fraction_above_chi2_95",
-// "unscored_poses"}; null when the bag has no pose. The route's frame (map) is taken as the world's,
+// "unscored_poses", "integrity"}; null when the bag has no pose. "integrity": whether repeat_node's
+// ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m or 5° wrong ("detection") and how
+// many right ones it flagged ("false_alarm"), with the counts; null without integrity reports. The route's frame (map) is taken as the world's,
 // as for the path errors: the teach phase runs on drift-free odometry.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
@@ -37,7 +39,9 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 
+#include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
@@ -60,6 +64,7 @@ struct Run {
   std::vector<htr::Pose2D> truth;
   std::vector<double> truth_stamps;
   std::vector<StampedEstimate> estimates;  // repeat_node/pose
+  std::map<double, int> integrity;         // repeat_node/integrity: level by stamp
   std::string last_state;
 };
 
@@ -68,7 +73,8 @@ Run readRun(const std::string& path) {
   Run run;
   rosbag::Bag bag(path, rosbag::bagmode::Read);
   rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
-                                             "/controller_node/state", "repeat_node/pose", "/repeat_node/pose"}));
+                                             "/controller_node/state", "repeat_node/pose", "/repeat_node/pose",
+                                             "repeat_node/integrity", "/repeat_node/integrity"}));
   for (const rosbag::MessageInstance& m : view) {
     if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
       // A message that is not a planar pose (NaN, non-unit quaternion) is left out.
@@ -76,6 +82,8 @@ Run readRun(const std::string& path) {
       if (!truth) continue;
       run.truth.push_back(*truth);
       run.truth_stamps.push_back(odom->header.stamp.toSec());
+    } else if (const auto integrity = m.instantiate<htr::Integrity>()) {
+      run.integrity[integrity->header.stamp.toSec()] = integrity->level;
     } else if (const auto state = m.instantiate<std_msgs::String>()) {
       run.last_state = state->data;
     } else if (const auto pose = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
@@ -85,6 +93,36 @@ Run readRun(const std::string& path) {
     }
   }
   return run;
+}
+
+// Whether repeat_node's ~integrity (the report of the same frame: the same stamp) flagged the
+// published poses that were wrong (more than 0.3 m or 5° from the ground truth), and how many right
+// ones it flagged. null when the bag has no integrity report.
+nlohmann::json scoreIntegrity(const Run& run, const htr::OdometryBuffer& truth) {
+  if (run.integrity.empty()) return nullptr;
+  htr::IntegrityScore score;
+  std::size_t without_report = 0;
+  for (const StampedEstimate& e : run.estimates) {
+    const auto report = run.integrity.find(e.stamp);
+    const auto at = truth.poseAt(e.stamp);
+    if (report == run.integrity.end() || !at) {
+      ++without_report;
+      continue;
+    }
+    score.add(e.pose, report->second != htr::Integrity::OK, *at);
+  }
+  const htr::IntegritySummary s = score.summary();
+  std::size_t degraded = 0, lost = 0;
+  for (const auto& [stamp, level] : run.integrity) {
+    degraded += level == htr::Integrity::DEGRADED ? 1 : 0;
+    lost += level == htr::Integrity::LOST ? 1 : 0;
+  }
+  return {{"reports", run.integrity.size()},          {"reports_degraded", degraded},
+          {"reports_lost", lost},                     {"poses_scored", s.poses},
+          {"wrong_poses", s.wrong},                   {"wrong_poses_flagged", s.wrong_flagged},
+          {"right_poses", s.right},                   {"right_poses_flagged", s.right_flagged},
+          {"detection", s.detection},                 {"false_alarm", s.false_alarm},
+          {"poses_without_report", without_report}};
 }
 
 // The published poses against the ground truth at their stamps (the pose of an image is older than
@@ -102,7 +140,7 @@ nlohmann::json scoreLocalization(const Run& run) {
   const auto summary = consistency.summary();
   if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
   const double deg = 180.0 / M_PI;
-  return {{"poses", summary->samples},
+  nlohmann::json localization = {{"poses", summary->samples},
           {"position_err_rms_m", summary->position_error_rms},
           {"heading_err_rms_deg", summary->heading_error_rms * deg},
           {"position_sigma_rms_m", summary->position_sigma_rms},
@@ -111,6 +149,8 @@ nlohmann::json scoreLocalization(const Run& run) {
           {"nees_median", summary->nees_median},
           {"nees_fraction_above_chi2_95", summary->fraction_above_chi2_95},
           {"unscored_poses", unscored}};
+  localization["integrity"] = scoreIntegrity(run, truth);
+  return localization;
 }
 
 }  // namespace
@@ -246,6 +286,12 @@ int main(int argc, char** argv) {
                   localization["position_sigma_rms_m"].get<double>(),
                   localization["heading_sigma_rms_deg"].get<double>(), localization["nees_mean"].get<double>(),
                   100.0 * localization["nees_fraction_above_chi2_95"].get<double>());
+      if (localization["integrity"].is_object()) {
+        const auto& integrity = localization["integrity"];
+        std::printf("integrity: %zu of %zu wrong poses (> 0.3 m or 5 deg) flagged, %zu of %zu right ones flagged\n",
+                    integrity["wrong_poses_flagged"].get<std::size_t>(), integrity["wrong_poses"].get<std::size_t>(),
+                    integrity["right_poses_flagged"].get<std::size_t>(), integrity["right_poses"].get<std::size_t>());
+      }
     }
     if (!finished) {
       std::printf("the run did NOT finish: controller state '%s', %.2f of %.2f m travelled\n",

@@ -130,6 +130,14 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   scan_angle_max_ = readParameter(p, "scan_angle_max", scan_angle_max_);
   scan_range_max_ = readParameter(p, "scan_range_max", scan_range_max_);
   rng_ = cv::RNG(static_cast<std::uint64_t>(readParameter(p, "seed", 1)));
+  kidnap_time_ = readParameter(p, "kidnap_time", kidnap_time_);
+  const std::vector<double> kidnap = readParameter<std::vector<double>>(p, "kidnap_offset", {0.0, 0.0, 0.0});
+  if (kidnap.size() != 3 || !std::isfinite(kidnap[0]) || !std::isfinite(kidnap[1]) || !std::isfinite(kidnap[2]) ||
+      !std::isfinite(kidnap_time_)) {
+    throw std::runtime_error("parameter '" + p.resolveName("kidnap_offset") +
+                             "' must be [dx, dy, dyaw] (finite), and '" + p.resolveName("kidnap_time") + "' finite");
+  }
+  kidnap_offset_ = Pose2D(kidnap[0], kidnap[1], kidnap[2]);
   readParameters(p, [&] {
     renderer_.emplace(PinholeCamera(calibration), render);
     robot_.emplace(Pose2D(start[0], start[1], start[2]), errors, limits,
@@ -200,6 +208,12 @@ void PlanarWorldSim::run() {
       }
     }
     robot_->step(v, w, dt);
+    if (kidnap_time_ > 0.0 && !kidnapped_ && sim_seconds >= kidnap_time_) {
+      kidnapped_ = true;
+      robot_->teleport(robot_->truth().compose(kidnap_offset_));
+      ROS_WARN("planar_world_sim: kidnapped: the robot moved by (%.2f m, %.2f m, %.2f rad) without its odometry noticing",
+               kidnap_offset_.x, kidnap_offset_.y, kidnap_offset_.yaw);
+    }
     sim_seconds += dt;
     sim_seconds_.store(sim_seconds);
     ++step;
@@ -231,7 +245,16 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
 void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
   if (camera_publisher_.getNumSubscribers() == 0) return;
   const Pose2D camera_pose = robot_->truth().compose(Pose2D(camera_mount_x_, 0.0, 0.0));
-  const cv::Mat image = renderer_->render(world_, camera_pose, world_.illumination.gainAt(sim_seconds), rng_);
+  cv::Mat image;
+  if (world_.cameraCoveredAt(Eigen::Vector2d(robot_->truth().x, robot_->truth().y))) {
+    // Something over the lens: a dark, slightly noisy frame (a camera still delivers images).
+    image = cv::Mat(renderer_->camera().height(), renderer_->camera().width(), CV_8UC3, cv::Scalar(25, 25, 25));
+    cv::Mat noise(image.size(), CV_8UC3);
+    rng_.fill(noise, cv::RNG::UNIFORM, 0, 4);
+    image += noise;
+  } else {
+    image = renderer_->render(world_, camera_pose, world_.illumination.gainAt(sim_seconds), rng_);
+  }
   std_msgs::Header header;
   header.stamp = stamp;
   header.frame_id = camera_frame_;

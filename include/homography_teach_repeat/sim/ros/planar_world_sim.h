@@ -60,6 +60,11 @@ class PlanarWorldSim {
   double camera_mount_x_ = 0.2;
   double camera_height_ = 0.5;
   double start_time_ = 1.0;
+  // A kidnapping (integrity tests): at kidnap_time_ [sim s] the robot is moved by kidnap_offset_
+  // (base frame) without its odometry noticing; kidnap_time_ <= 0: never.
+  double kidnap_time_ = -1.0;
+  Pose2D kidnap_offset_;
+  bool kidnapped_ = false;
   int scan_count_ = 0;
   double scan_angle_min_ = -M_PI / 2, scan_angle_max_ = M_PI / 2, scan_range_max_ = 8.0;
   std::string odom_frame_, base_frame_, camera_frame_, world_frame_, ground_truth_prefix_;

@@ -1,0 +1,187 @@
+// check_setup: before a robot teaches, is its set-up one teach and repeat can work with? Listens
+// for `duration` seconds to the camera (image_transport camera: camera/image_raw +
+// camera/camera_info), the odometry (odom) and the tf base_frame -> the camera's frame, extracts
+// the features (feature_type) and vertical lines of the last image, and hands what it saw to the
+// ROS-free checkSetup (teach_repeat/setup_check.h). Prints every problem with how to fix it,
+// publishes the report on ~report (std_msgs/String, latched) and /diagnostics, and exits 0 when
+// nothing blocks teaching, 1 otherwise (2: bad parameters).
+//   rosrun homography_teach_repeat check_setup camera:=/camera [_duration:=5] [_base_frame:=base_link]
+// Parameters (private): duration [s] 5, base_frame base_link, camera_frame (default: camera_info's
+// frame_id), feature_type sift, min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2,
+// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, line_min_length_px 25.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <image_transport/image_transport.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <std_msgs/String.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <cmath>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/ros/parameters.h"
+#include "homography_teach_repeat/teach_repeat/setup_check.h"
+
+namespace htr = homography_teach_repeat;
+
+namespace {
+
+struct Settings {
+  double duration = 5.0;
+  std::string base_frame = "base_link", camera_frame;
+  htr::FeatureType feature_type = htr::FeatureType::kSift;
+  htr::SetupCheckOptions check;
+  htr::VerticalLineOptions lines;
+};
+
+Settings readSettings(const ros::NodeHandle& p) {
+  Settings s;
+  htr::readParameters(p, [&] {
+    s.duration = htr::readParameter(p, "duration", s.duration);
+    if (!(s.duration > 0.5) || !std::isfinite(s.duration)) throw std::invalid_argument("duration must be > 0.5 s");
+    s.base_frame = htr::readParameter<std::string>(p, "base_frame", s.base_frame);
+    s.camera_frame = htr::readParameter<std::string>(p, "camera_frame", "");
+    s.feature_type = htr::featureTypeFromString(htr::readParameter<std::string>(p, "feature_type", "sift"));
+    htr::SetupCheckOptions& c = s.check;
+    c.min_image_rate = htr::readParameter(p, "min_image_rate", c.min_image_rate);
+    c.min_odometry_rate = htr::readParameter(p, "min_odometry_rate", c.min_odometry_rate);
+    c.max_stamp_offset = htr::readParameter(p, "max_stamp_offset", c.max_stamp_offset);
+    c.max_tilt = htr::readParameter(p, "max_tilt", c.max_tilt);
+    c.min_features = htr::readParameter(p, "min_features", c.min_features);
+    c.min_vertical_lines = htr::readParameter(p, "min_vertical_lines", c.min_vertical_lines);
+    s.lines.min_length_px = htr::readParameter(p, "line_min_length_px", s.lines.min_length_px);
+    s.lines.validate();
+  });
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "check_setup");
+  ros::NodeHandle nh, private_nh("~");
+  Settings settings;
+  try {
+    settings = readSettings(private_nh);
+  } catch (const std::exception& e) {
+    std::cerr << "check_setup: " << e.what() << std::endl;
+    return 2;
+  }
+  std::mutex mutex;
+  htr::SetupObservations seen;
+  sensor_msgs::ImageConstPtr last_image;
+  std::string camera_frame = settings.camera_frame;
+  image_transport::ImageTransport transport(nh);
+  // Images and camera_info apart (a missing camera_info must be seen as such, not as no images).
+  image_transport::Subscriber image_sub = transport.subscribe("camera/image_raw", 5, [&](const sensor_msgs::ImageConstPtr& image) {
+    std::lock_guard<std::mutex> lock(mutex);
+    seen.image_stamps.push_back(image->header.stamp.toSec());
+    seen.image_width = static_cast<int>(image->width);
+    seen.image_height = static_cast<int>(image->height);
+    last_image = image;
+    if (camera_frame.empty()) camera_frame = image->header.frame_id;
+  });
+  ros::Subscriber info_sub = nh.subscribe<sensor_msgs::CameraInfo>("camera/camera_info", 5, [&](const auto& info) {
+    std::lock_guard<std::mutex> lock(mutex);
+    seen.camera_info = htr::ros_conversions::toCalibration(*info);
+    if (!info->header.frame_id.empty()) camera_frame = info->header.frame_id;
+  });
+  bool covariance_seen = false;
+  ros::Subscriber odometry_sub = nh.subscribe<nav_msgs::Odometry>("odom", 100, [&](const auto& odom) {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!htr::ros_conversions::toPose2D(odom->pose.pose)) {
+      ++seen.non_finite_odometry;
+      return;
+    }
+    seen.odometry_stamps.push_back(odom->header.stamp.toSec());
+    for (const double v : odom->pose.covariance) covariance_seen = covariance_seen || v != 0.0;
+  });
+  tf2_ros::Buffer tf_buffer;
+  tf2_ros::TransformListener tf_listener(tf_buffer);
+  ros::Publisher report_pub = private_nh.advertise<std_msgs::String>("report", 1, /*latch=*/true);
+  ros::Publisher diagnostics_pub = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1, true);
+
+  ROS_INFO("check_setup: listening for %.1f s to %s, %s, %s and the tf %s -> camera", settings.duration,
+           image_sub.getTopic().c_str(), info_sub.getTopic().c_str(), odometry_sub.getTopic().c_str(),
+           settings.base_frame.c_str());
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  // Wall time while the simulated clock has not started; ROS time otherwise.
+  const ros::WallTime wall_start = ros::WallTime::now();
+  while (ros::ok() && (ros::WallTime::now() - wall_start).toSec() < settings.duration) ros::WallDuration(0.05).sleep();
+  spinner.stop();
+  if (!ros::ok()) return 1;
+
+  std::lock_guard<std::mutex> lock(mutex);
+  seen.duration = settings.duration;
+  seen.odometry_covariance_zero = !seen.odometry_stamps.empty() && !covariance_seen;
+  if (camera_frame.empty()) {
+    seen.camera_mount_problem = "no camera frame known (no camera_info or image with a frame_id)";
+  } else {
+    try {
+      const auto mount = tf_buffer.lookupTransform(settings.base_frame, camera_frame, ros::Time(0), ros::Duration(0.5));
+      seen.camera_mount = htr::ros_conversions::toIsometry(mount.transform);
+    } catch (const tf2::TransformException& e) {
+      seen.camera_mount_problem = std::string(settings.base_frame + " -> " + camera_frame + ": ") + e.what();
+    }
+  }
+  if (last_image) {
+    const auto image = htr::ros_conversions::toCvImage(last_image);
+    if (!image) {
+      seen.image_problem = image.status().message();
+    } else {
+      try {
+        htr::FeatureExtractor extractor(htr::FeatureOptions{settings.feature_type, 5000});
+        const auto features = extractor.extract(*image);
+        if (features) seen.features = static_cast<int>(features->keypoints.size());
+        htr::VerticalLineExtractor line_extractor(settings.lines);
+        const auto lines = line_extractor.extract(*image);
+        if (lines) seen.vertical_lines = static_cast<int>(lines->size());
+      } catch (const std::invalid_argument& e) {
+        seen.image_problem = e.what();
+      }
+    }
+  }
+  const auto problems = htr::checkSetup(seen, settings.check);
+  bool blocking = false;
+  std::ostringstream report;
+  report << "check_setup: " << seen.image_stamps.size() << " images (" << htr::stampRate(seen.image_stamps) << " Hz), "
+         << seen.odometry_stamps.size() << " odometry messages (" << htr::stampRate(seen.odometry_stamps) << " Hz)";
+  if (seen.features) report << ", " << *seen.features << " features";
+  if (seen.vertical_lines) report << ", " << *seen.vertical_lines << " vertical lines";
+  report << " in " << settings.duration << " s\n";
+  for (const auto& p : problems) {
+    blocking = blocking || p.blocking;
+    report << (p.blocking ? "PROBLEM: " : "warning: ") << p.what << "\n    fix: " << p.how_to_fix << "\n";
+  }
+  report << (problems.empty() ? "OK: ready to teach" : blocking ? "NOT READY: fix the problems above" : "ready to teach, with the warnings above")
+         << "\n";
+  std::cout << report.str() << std::flush;
+  std_msgs::String message;
+  message.data = report.str();
+  report_pub.publish(message);
+  diagnostic_msgs::DiagnosticArray diagnostics;
+  diagnostics.header.stamp = ros::Time::now();
+  diagnostic_msgs::DiagnosticStatus status;
+  status.name = "check_setup";
+  status.hardware_id = "check_setup";
+  status.level = blocking ? diagnostic_msgs::DiagnosticStatus::ERROR
+                          : problems.empty() ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN;
+  status.message = problems.empty() ? "ready to teach" : problems.front().what;
+  for (const auto& p : problems) {
+    diagnostic_msgs::KeyValue value;
+    value.key = p.what;
+    value.value = p.how_to_fix;
+    status.values.push_back(value);
+  }
+  diagnostics.status.push_back(status);
+  diagnostics_pub.publish(diagnostics);
+  ros::WallDuration(0.5).sleep();  // let latched subscribers connect
+  return blocking ? 1 : 0;
+}
