@@ -81,6 +81,11 @@ void HeadingAidedOdometryOptions::validate() const {
   requirePositive(heading_fix_variance, "heading_fix_variance");
   requireNonNegative(heading_variance_per_metre, "heading_variance_per_metre");
   requireNonNegative(heading_variance_per_radian, "heading_variance_per_radian");
+  requireNonNegative(position_variance_per_radian, "position_variance_per_radian");
+  requirePositive(pose_innovation_gate, "pose_innovation_gate");
+  if (!(pose_common_fraction >= 0.0 && pose_common_fraction <= 1.0)) {
+    throw std::invalid_argument("heading-aided odometry: pose_common_fraction must be in [0, 1]");
+  }
   requirePositive(min_mu_variance, "min_mu_variance");
   requirePositive(innovation_gate, "innovation_gate");
   if (refused_before_reset < 1) {
@@ -149,8 +154,9 @@ Status HeadingAidedOdometry::predict(const Pose2D& odom_pose) {
   const double distance = std::hypot(step.x, step.y);
   const double turned = std::abs(wrapToPi(step.yaw));
   // Position noise is isotropic in the body frame, so it needs no rotation into the route frame.
-  const Eigen::Vector3d process(options_.position_variance_per_metre * distance,
-                                options_.position_variance_per_metre * distance,
+  const double position_variance =
+      options_.position_variance_per_metre * distance + options_.position_variance_per_radian * turned;
+  const Eigen::Vector3d process(position_variance, position_variance,
                                 options_.heading_variance_per_metre * distance +
                                     options_.heading_variance_per_radian * turned);
   covariance_ = F * covariance_ * F.transpose() + Eigen::Matrix3d(process.asDiagonal());
@@ -202,9 +208,23 @@ Expected<double> HeadingAidedOdometry::correctWithPose(const Pose2D& measured, c
   // H = I: the innovation is the pose difference (yaw wrapped), S = P + R (docs/math.md §7.1).
   const Eigen::Vector3d innovation(measured.x - estimate_.x, measured.y - estimate_.y,
                                    wrapToPi(measured.yaw - estimate_.yaw));
-  const Eigen::Matrix3d S = covariance_ + measurement_covariance;
-  const Eigen::LDLT<Eigen::Matrix3d> S_ldlt(S);
+  Eigen::Matrix3d S = covariance_ + measurement_covariance;
+  Eigen::LDLT<Eigen::Matrix3d> S_ldlt(S);
   const double nis = innovation.dot(S_ldlt.solve(innovation));
+  last_innovation_ = FilterInnovation{nis, 3, false};
+  if (!(nis <= options_.pose_innovation_gate)) {
+    if (!countRefusal()) {
+      char message[200];
+      std::snprintf(message, sizeof(message),
+                    "heading-aided odometry: pose fix refused, %.2f m / %.2f deg from the prediction (NIS %.1f > "
+                    "pose_innovation_gate %.1f)",
+                    std::hypot(innovation(0), innovation(1)), innovation(2) * 180.0 / M_PI, nis,
+                    options_.pose_innovation_gate);
+      return Status(StatusCode::kNoConsensus, message);
+    }
+    S = covariance_ + measurement_covariance;  // widened: the fix is taken
+    S_ldlt.compute(S);
+  }
   const Eigen::Matrix3d gain = covariance_ * S_ldlt.solve(Eigen::Matrix3d::Identity());
   const Eigen::Vector3d correction = gain * innovation;
   if (!correction.allFinite() || !std::isfinite(nis)) {
@@ -213,6 +233,12 @@ Expected<double> HeadingAidedOdometry::correctWithPose(const Pose2D& measured, c
   estimate_ = Pose2D(estimate_.x + correction(0), estimate_.y + correction(1), wrapToPi(estimate_.yaw + correction(2)));
   const Eigen::Matrix3d keep = Eigen::Matrix3d::Identity() - gain;
   covariance_ = keep * covariance_ * keep.transpose() + gain * measurement_covariance * gain.transpose();
+  // The error shared by repeated fixes: the covariance is kept at least pose_common_fraction of
+  // the fix's (the positive part of the difference is added: P ⪰ c R afterwards).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> lacking(options_.pose_common_fraction * measurement_covariance -
+                                                               covariance_);
+  covariance_ += lacking.eigenvectors() * lacking.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                 lacking.eigenvectors().transpose();
   covariance_ = 0.5 * (covariance_ + covariance_.transpose());
   refused_in_a_row_ = 0;
   distance_since_fix_ = 0.0;

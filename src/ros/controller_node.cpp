@@ -264,7 +264,9 @@ void ControllerNode::onHeading(const HeadingCorrectionStampedConstPtr& heading) 
   std::lock_guard<std::mutex> lock(mutex_);
   reference_index_ = heading->reference_index;
   inliers_ = heading->inliers;
-  if (heading->ok || !follower_) return;
+  // repeat_node's ~integrity, once it comes, says whether the pose can be trusted: a frame without
+  // a fix whose bridged pose is still good (mu, hybrid) must not stop the robot.
+  if (heading->ok || !follower_ || !integrity_.empty()) return;
   follower_->setLost(heading->status, heading->header.stamp.toSec());
 }
 

@@ -48,7 +48,11 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   publishMarkers(pipeline_->localizer().trackedKeyframe());
   image_transport::ImageTransport private_transport(private_nh_);
   debug_publisher_ = private_transport.advertise("debug_image", 1);
-  odometry_subscriber_ = nh_.subscribe("odom", 50, &RepeatNode::onOdometry, this);
+  odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
+                                        [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 5.0; },
+                                        "must be in [0, 5] s");
+  odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
+      nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1, &RepeatNode::onImage, this);
   diagnostics_.setHardwareID("repeat_node");
   diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
@@ -133,6 +137,8 @@ void RepeatNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& camera_info) {
   const double age_ms = 1e3 * (ros::Time::now() - image->header.stamp).toSec();
   const ros::WallTime started = ros::WallTime::now();
+  // The odometry of this image's instant may still be on its way (odometry_subscriber.h).
+  odometry_subscriber_->waitFor(image->header.stamp.toSec(), odometry_wait_);
   std::lock_guard<std::mutex> lock(mutex_);
   last_image_arrival_ = ros::Time::now();
   const auto cv_image = ros_conversions::toCvImage(image);
@@ -148,6 +154,12 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
 
 void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFrameResult& result,
                          const Expected<cv::Mat>& cv_image) {
+  // The pose first: a subscriber that hears of a frame without a fix before its (bridged) pose
+  // would stop for nothing.
+  if (result.pose) publishPose(image->header.stamp, result);
+  std_msgs::Header integrity_header = image->header;
+  integrity_header.frame_id = map_frame_;
+  publishIntegrity(integrity_header, result.integrity, result.fixes, /*camera_silent=*/false);
   HeadingCorrectionStamped heading;
   heading.header = image->header;
   heading.mode = toString(pipeline_->options().localization.mode);
@@ -167,14 +179,13 @@ void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFr
     ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", result.status.toString().c_str());
   }
   heading_publisher_.publish(heading);
-  std_msgs::Header integrity_header = image->header;
-  integrity_header.frame_id = map_frame_;
-  publishIntegrity(integrity_header, result.integrity, result.fixes, /*camera_silent=*/false);
   if (!result.warning.empty()) ROS_WARN_THROTTLE(5.0, "repeat_node: %s", result.warning.c_str());
   if (debug_publisher_.getNumSubscribers() > 0 && cv_image) publishDebugImage(image, *cv_image, result);
-  if (!result.pose) return;
+}
+
+void RepeatNode::publishPose(const ros::Time& stamp, const RepeatFrameResult& result) {
   geometry_msgs::PoseWithCovarianceStamped pose;
-  pose.header.stamp = image->header.stamp;
+  pose.header.stamp = stamp;
   pose.header.frame_id = map_frame_;
   pose.pose = ros_conversions::toPoseWithCovariance(*result.pose, result.covariance ? &*result.covariance : nullptr,
                                                     unobserved_variance_);
@@ -185,7 +196,7 @@ void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFr
     return;
   }
   geometry_msgs::TransformStamped t;
-  t.header.stamp = image->header.stamp;
+  t.header.stamp = stamp;
   t.header.frame_id = map_frame_;
   t.child_frame_id = odom_frame_;
   t.transform.translation.x = result.map_to_odom->x;

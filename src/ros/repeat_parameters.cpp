@@ -39,6 +39,9 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     m.heading_fix_variance = readParameter(nh, "mu_heading_fix_variance", m.heading_fix_variance);
     m.heading_variance_per_metre = readParameter(nh, "mu_heading_variance_per_metre", m.heading_variance_per_metre);
     m.heading_variance_per_radian = readParameter(nh, "mu_heading_variance_per_radian", m.heading_variance_per_radian);
+    m.position_variance_per_radian = readParameter(nh, "mu_position_variance_per_radian", m.position_variance_per_radian);
+    m.pose_innovation_gate = readParameter(nh, "pose_innovation_gate", m.pose_innovation_gate);
+    m.pose_common_fraction = readParameter(nh, "pose_common_fraction", m.pose_common_fraction);
     m.min_mu_variance = readParameter(nh, "mu_variance", m.min_mu_variance);
     m.innovation_gate = readParameter(nh, "mu_innovation_gate", m.innovation_gate);
     m.refused_before_reset = readParameter(nh, "mu_gate_switch_after", m.refused_before_reset);
@@ -65,6 +68,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     o.follow_odometry_distance = readParameter(nh, "follow_odometry_distance", o.follow_odometry_distance);
     o.search_all_after = readParameter(nh, "search_all_after", o.search_all_after);
     o.hybrid_fuse_both = readParameter(nh, "hybrid_fuse_both", o.hybrid_fuse_both);
+    o.hybrid_skip_turn_keyframes = readParameter(nh, "hybrid_skip_turn_keyframes", o.hybrid_skip_turn_keyframes);
     IntegrityOptions& i = o.integrity;
     i.degraded_position_bound = readParameter(nh, "integrity_degraded_position_bound", i.degraded_position_bound);
     i.lost_position_bound = readParameter(nh, "integrity_lost_position_bound", i.lost_position_bound);

@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/ros/teach_node.h"
 
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -70,7 +71,11 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
       diagnostics_(nh, private_nh) {
   status_publisher_ = private_nh_.advertise<TeachStatus>("status", 1, /*latch=*/true);
   publishStatus("waiting", "waiting for camera/image_raw, camera/camera_info and odom");
-  odometry_subscriber_ = nh_.subscribe("odom", 50, &TeachNode::onOdometry, this);
+  odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
+                                        [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 5.0; },
+                                        "must be in [0, 5] s");
+  odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
+      nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 2, &TeachNode::onImage, this);
   finish_service_ = private_nh_.advertiseService("finish", &TeachNode::onFinish, this);
   diagnostics_.setHardwareID("teach_node");
@@ -125,6 +130,8 @@ Status TeachNode::startSession(const sensor_msgs::CameraInfo& camera_info) {
 
 void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
                         const sensor_msgs::CameraInfoConstPtr& camera_info) {
+  // The odometry of this image's instant may still be on its way (odometry_subscriber.h).
+  odometry_subscriber_->waitFor(image->header.stamp.toSec(), odometry_wait_);
   std::lock_guard<std::mutex> lock(mutex_);
   ++images_;
   if (finished_) return;

@@ -71,7 +71,7 @@ TrifocalLocalizerNode::TrifocalLocalizerNode(const ros::NodeHandle& nh, const ro
   requirePositive(private_nh, "max_transfer_error", max_transfer_error_px_);
   poses_publisher_ = private_nh_.advertise<geometry_msgs::PoseArray>("poses", 5);
   landmarks_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 5);
-  odometry_subscriber_ = nh_.subscribe("odom", 50, &TrifocalLocalizerNode::onOdometry, this);
+  odometry_subscriber_ = nh_.subscribe("odom", 50, &TrifocalLocalizerNode::onOdometry, this, ros::TransportHints().tcpNoDelay());
   camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1, &TrifocalLocalizerNode::onImage, this);
   diagnostics_.setHardwareID("trifocal_localizer");
   diagnostics_.add("three-view localization", this, &TrifocalLocalizerNode::produceDiagnostics);

@@ -34,7 +34,7 @@ class PointEstimator : public KeyframeEstimator {
   // A pose needs the keyframe's plane (a hybrid route may have keyframes without one).
   bool usable(const KeyframeReference& reference, int /*keyframe*/,
               const std::optional<Pose2D>& /*predicted_pose*/) const override {
-    return reference.plane.has_value();
+    return reference.plane.has_value() && !(context_.options.skip_turn_keyframes_for_poses && reference.turn);
   }
 
   Expected<FrameObservations> observe(const cv::Mat& /*image*/, const cv::Mat& gray) override {

@@ -35,7 +35,8 @@ Expected<Pose2D> OdometryBuffer::poseAt(double stamp) const {
   if (samples_.empty()) return Status(StatusCode::kTooFewPoints, "no odometry received yet");
   if (!std::isfinite(stamp)) return Status(StatusCode::kInvalidInput, "stamp is not finite");
   if (stamp > samples_.back().first) {
-    return Status(StatusCode::kNoConsensus, "no odometry yet at stamp " + std::to_string(stamp));
+    return Status(StatusCode::kNoConsensus, "no odometry yet at stamp " + std::to_string(stamp) + " (the newest is " +
+                                                std::to_string(samples_.back().first) + ")");
   }
   if (stamp < samples_.front().first) {
     return Status(StatusCode::kInvalidInput,

@@ -30,7 +30,8 @@ void RepeatPipelineOptions::validate() const {
   integrity.validate();
 }
 
-Expected<RepeatPipeline::Localizers> RepeatPipeline::createLocalizers(const Route& route, const RepeatOptions& options) {
+Expected<RepeatPipeline::Localizers> RepeatPipeline::createLocalizers(const Route& route, const RepeatOptions& options,
+                                                                      bool skip_turn_keyframes) {
   if (options.mode != RepeatMode::kHybrid) {
     auto localizer = RepeatLocalizer::create(route, options);
     if (!localizer) return localizer.status();
@@ -42,6 +43,7 @@ Expected<RepeatPipeline::Localizers> RepeatPipeline::createLocalizers(const Rout
   RepeatOptions points = options;
   points.mode = RepeatMode::kFastHd;
   points.require_planes = false;
+  points.skip_turn_keyframes_for_poses = skip_turn_keyframes;
   RepeatOptions lines = options;
   lines.mode = RepeatMode::kMu;
   std::optional<RepeatLocalizer> point_localizer, line_localizer;
@@ -80,7 +82,7 @@ Expected<RepeatPipeline> RepeatPipeline::create(const Route& route, const Repeat
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
-  auto localizers = createLocalizers(route, options.localization);
+  auto localizers = createLocalizers(route, options.localization, options.hybrid_skip_turn_keyframes);
   if (!localizers) return localizers.status();
   if (options.start_keyframe >= localizers->primary.keyframeCount()) {
     return Status(StatusCode::kInvalidInput, "start_keyframe " + std::to_string(options.start_keyframe) +
@@ -110,7 +112,7 @@ bool RepeatPipeline::usesFilter() const { return mode() == RepeatMode::kMu || mo
 Status RepeatPipeline::addOdometry(double stamp, const Pose2D& odom) { return odometry_.add(stamp, odom); }
 
 Status RepeatPipeline::reconfigure(const RepeatOptions& options) {
-  auto localizers = createLocalizers(localizer_.route(), options);
+  auto localizers = createLocalizers(localizer_.route(), options, options_.hybrid_skip_turn_keyframes);
   if (!localizers) return localizers.status();
   const int tracked = localizer_.trackedKeyframe();
   localizer_ = std::move(localizers->primary);
@@ -152,20 +154,11 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   }
   if (!image) return fail(image.status());
   if (mode() == RepeatMode::kHybrid) return processHybridFrame(stamp, *image);
-  // The odometry gate's verdict on each reference's pose, inside the localizer: a pose it would
-  // refuse from one keyframe lets the neighbour try (repeat_localizer.h). The pose returned is then
-  // gated for real (accepted, or refused and counted towards a switch of reference).
   // The odometry at the image stamp is looked up once for every pose of this frame.
   const auto odom_near_image = odometry_.poseNear(stamp, kOdometryLag);
-  const RepeatLocalizer::PoseCheck would_pass = [&](const RepeatEstimate& candidate) {
-    return odometry_gate_ && odom_near_image ? odometry_gate_->agrees(candidate.base_pose, *odom_near_image)
-                                             : Status::ok();
-  };
-  const bool search_all = initialized_ && searchAllNow();
+  bool search_all = false;
   const int tracked_before = localizer_.trackedKeyframe();
-  if (search_all) ++statistics_.searches_all;
-  auto estimate = initialized_ && !search_all ? localizer_.localize(*image, predictedFilterPose(stamp), would_pass)
-                                              : localizer_.initializeGlobally(*image);
+  auto estimate = localizeWithGate(*image, odom_near_image, predictedFilterPose(stamp), &search_all);
   result.timing = localizer_.lastTiming();
   // A whole-route search that found nothing acceptable must not leave tracking on its best guess.
   auto failSearch = [&](const Status& status) {
@@ -238,15 +231,9 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
   const bool points = !primaryIsMu();
   // 1. Fast-HD (the primary localizer, when the route has planes).
   if (points) {
-    const RepeatLocalizer::PoseCheck would_pass = [&](const RepeatEstimate& candidate) {
-      return odometry_gate_ && odom_near_image ? odometry_gate_->agrees(candidate.base_pose, *odom_near_image)
-                                               : Status::ok();
-    };
-    const bool search_all = initialized_ && searchAllNow();
+    bool search_all = false;
     const int tracked_before = localizer_.trackedKeyframe();
-    if (search_all) ++statistics_.searches_all;
-    const auto estimate = initialized_ && !search_all ? localizer_.localize(image, std::nullopt, would_pass)
-                                                      : localizer_.initializeGlobally(image);
+    const auto estimate = localizeWithGate(image, odom_near_image, std::nullopt, &search_all);
     result.timing = localizer_.lastTiming();
     const Status fused = fuseHybridPose(stamp, odom_near_image, estimate, &result);
     if (fused.isOk()) {
@@ -328,8 +315,13 @@ Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom
     integrity_.addFix(stamp, true, std::nullopt, 0, estimate->inliers);
   } else {
     const auto nis = filter_.correctWithPose(estimate->base_pose, estimate->covariance, *odom);
-    if (!nis) return nis.status();
-    filter_.takeInnovation();
+    const auto innovation = filter_.takeInnovation();
+    if (!nis) {
+      // Refused by the filter's gate: the pose disagrees with it beyond what both admit.
+      if (nis.status().code() == StatusCode::kNoConsensus) ++statistics_.gated;
+      if (innovation) integrity_.addFix(stamp, false, std::nullopt, 0, estimate->inliers);
+      return nis.status();
+    }
     integrity_.addFix(stamp, true, *nis, 3, estimate->inliers);
   }
   initialized_ = true;
@@ -453,6 +445,21 @@ Status RepeatPipeline::correctWithLineLandmarks(const Pose2D& odom, RepeatEstima
     last = Status(used.status().code(), reasons);
   }
   return last;
+}
+
+Expected<RepeatEstimate> RepeatPipeline::localizeWithGate(const cv::Mat& image, const Expected<Pose2D>& odom_near_image,
+                                                          const std::optional<Pose2D>& predicted, bool* search_all) {
+  // The odometry gate's verdict on each reference's pose, inside the localizer: a pose it would
+  // refuse from one keyframe lets the neighbour try (repeat_localizer.h). The pose returned is then
+  // gated for real by the caller (accepted, or refused and counted towards a switch of reference).
+  const RepeatLocalizer::PoseCheck would_pass = [&](const RepeatEstimate& candidate) {
+    return odometry_gate_ && odom_near_image ? odometry_gate_->agrees(candidate.base_pose, *odom_near_image)
+                                             : Status::ok();
+  };
+  *search_all = initialized_ && searchAllNow();
+  if (*search_all) ++statistics_.searches_all;
+  return initialized_ && !*search_all ? localizer_.localize(image, predicted, would_pass)
+                                      : localizer_.initializeGlobally(image);
 }
 
 bool RepeatPipeline::searchAllNow() const {

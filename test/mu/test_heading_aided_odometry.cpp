@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <random>
 #include <string>
@@ -401,6 +403,37 @@ TEST(HeadingAidedOdometry, PoseFixIsTheKalmanUpdateWithItsInnovation) {
   ASSERT_TRUE(wrapped.align(Pose2D(0.0, 0.0, M_PI - 0.01), Pose2D(), prior).isOk());
   ASSERT_TRUE(wrapped.correctWithPose(Pose2D(0.0, 0.0, -M_PI + 0.01), R, Pose2D()).isOk());
   EXPECT_NEAR(std::abs(wrapToPi(wrapped.routePose(Pose2D())->yaw - M_PI)), 0.0, 1e-9);
+}
+
+// Repeated fixes standing still do not shrink the covariance below pose_common_fraction of a fix's
+// (their shared error does not average away); a fix beyond pose_innovation_gate is refused.
+TEST(HeadingAidedOdometry, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRefused) {
+  HeadingAidedOdometryOptions options;
+  options.pose_common_fraction = 0.5;
+  HeadingAidedOdometry filter(options);
+  const Eigen::Matrix3d R = Eigen::Vector3d(1e-4, 4e-4, 1e-5).asDiagonal();
+  ASSERT_TRUE(filter.align(Pose2D(), Pose2D(), R).isOk());
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(filter.correctWithPose(Pose2D(0.001, 0.0, 0.0), R, Pose2D()).isOk());
+  const Eigen::Matrix3d lacking = filter.covariance() - 0.5 * R;
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(lacking).eigenvalues().minCoeff(), -1e-15);
+  EXPECT_LE(filter.covariance()(0, 0), R(0, 0));
+  // Without the common share the covariance would have shrunk fifty-fold.
+  HeadingAidedOdometryOptions independent = options;
+  independent.pose_common_fraction = 0.0;
+  HeadingAidedOdometry naive(independent);
+  ASSERT_TRUE(naive.align(Pose2D(), Pose2D(), R).isOk());
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(naive.correctWithPose(Pose2D(), R, Pose2D()).isOk());
+  EXPECT_LT(naive.covariance()(0, 0), R(0, 0) / 40.0);
+  // 0.2 m off with σ ≈ 1.2 cm: NIS ≈ 270 > 22, refused (and said so) until refused_before_reset.
+  const auto wild = filter.correctWithPose(Pose2D(0.2, 0.0, 0.0), R, Pose2D());
+  EXPECT_EQ(wild.status().code(), StatusCode::kNoConsensus);
+  EXPECT_NE(wild.status().message().find("pose_innovation_gate"), std::string::npos) << wild.status().message();
+  const auto innovation = filter.takeInnovation();
+  ASSERT_TRUE(innovation);
+  EXPECT_FALSE(innovation->accepted);
+  EXPECT_GT(innovation->nis, 100.0);
+  EXPECT_EQ(filter.refusedInARow(), 1);
+  EXPECT_NEAR(filter.routePose(Pose2D())->x, 0.001, 1e-3);  // unchanged
 }
 
 TEST(HeadingAidedOdometry, PoseFixBadInputIsRefused) {

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "homography_teach_repeat/teach_repeat/setup_check.h"
+#include "support/synthetic_route.h"
 
 using namespace homography_teach_repeat;
 
@@ -16,12 +17,7 @@ SetupObservations goodSetup() {
   seen.duration = 5.0;
   for (int i = 0; i < 50; ++i) seen.image_stamps.push_back(100.0 + 0.1 * i);
   for (int i = 0; i < 250; ++i) seen.odometry_stamps.push_back(100.0 + 0.02 * i);
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
+  CameraCalibration c = test_support::syntheticCalibration();
   c.distortion_model = "plumb_bob";
   c.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
   seen.camera_info = c;

@@ -52,8 +52,24 @@ struct HeadingAidedOdometryOptions {
   double heading_fix_variance = 7.6e-5;         // [rad²] ((0.5°)²): align() and correctHeading()
   double heading_variance_per_metre = 1.0e-3;   // [rad²/m] (1.8° after 1 m)
   double heading_variance_per_radian = 1.0e-4;  // [rad²/rad] (turning in place)
+  // [m²/rad] a base turning in place does not turn about exactly its centre (wheel slip, a caster):
+  // without it a robot turning at a corner fused pose after pose with no position noise in between
+  // and claimed a position to a tenth of a millimetre (the simulator's gallery: NEES 200-700).
+  double position_variance_per_radian = 2.5e-5;
   double min_mu_variance = 4.0;                 // [px²] floor of a μ measurement's variance
   double innovation_gate = 4.0;                 // [σ] > 0
+  // A pose fix (correctWithPose) whose normalized innovation squared exceeds this is refused (> 0;
+  // 22 is χ² with 3 degrees of freedom at the tail of the scalar 4 σ gate, 6e-5): a Fast-HD pose
+  // that passed its own checks and the odometry gate can still disagree with the filter by much
+  // more than both admit (the simulator's gallery: poses 8 cm / 2.5° off at a corner claiming
+  // millimetres, NEES 60000). Refusals count towards refused_before_reset as the μ fixes'.
+  double pose_innovation_gate = 22.0;
+  // [0, 1] The share of a pose fix's covariance that repeated fixes do not average away (the
+  // keyframe's plane and taught pose, the same view): after a pose fix the filter's covariance is
+  // kept at least this fraction of the fix's (docs/math.md §7.1). 0: every fix independent (a
+  // robot standing at the end of the simulator's room for 20 s claimed a tenth of a millimetre
+  // with 1 mm errors: NEES 63).
+  double pose_common_fraction = 0.5;
   int refused_before_reset = 20;                // >= 1
   // A μ fix is taken only when it agrees with the previous frame's μ against the same keyframe:
   // the change of μ between the two within this [px] of the change the odometry predicts, the
@@ -158,7 +174,8 @@ class HeadingAidedOdometry {
   // A pose fix: base_link at `measured` (route frame) with the (x, y, yaw) `measurement_covariance`
   // when the odometry read `odom_pose` (docs/math.md §7.1). Returns the normalized innovation
   // squared (3 degrees of freedom). kInvalidInput: non-finite input or a covariance that is not
-  // symmetric positive definite; kNoConsensus: not aligned.
+  // symmetric positive definite; kNoConsensus: not aligned, or refused by pose_innovation_gate
+  // (after refused_before_reset refusals in a row the covariance is widened and the fix taken).
   Expected<double> correctWithPose(const Pose2D& measured, const Eigen::Matrix3d& measurement_covariance,
                                    const Pose2D& odom_pose);
   // The innovation of the last fix tried since the last call (nullopt: none; a line landmark fix

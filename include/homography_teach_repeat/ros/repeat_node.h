@@ -26,6 +26,7 @@
 #include <string>
 
 #include "homography_teach_repeat/RepeatConfig.h"
+#include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
 #include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
 
@@ -41,6 +42,7 @@ class RepeatNode {
   void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
   void onReconfigure(RepeatConfig& config, uint32_t level);
   void publish(const sensor_msgs::ImageConstPtr& image, const RepeatFrameResult& result, const Expected<cv::Mat>& cv_image);
+  void publishPose(const ros::Time& stamp, const RepeatFrameResult& result);  // and the map -> odom tf
   void publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current, const RepeatFrameResult& result);
   void publishMarkers(int current_keyframe);
   void publishIntegrity(const std_msgs::Header& header, const IntegrityReport& report, const std::string& fixes,
@@ -68,11 +70,13 @@ class RepeatNode {
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
   image_transport::Publisher debug_publisher_;
-  ros::Subscriber odometry_subscriber_;
   ros::Publisher pose_publisher_, heading_publisher_, marker_publisher_, integrity_publisher_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
+  // Its thread calls onOdometry, which uses the members above (destroyed before them).
+  std::unique_ptr<OdometrySubscriber> odometry_subscriber_;
+  double odometry_wait_ = 0.2;  // [s] an image waits this long for the odometry of its stamp
   // Declared last: its first callback runs in the constructor, when everything else exists.
   boost::recursive_mutex reconfigure_mutex_;  // ours, so updateConfig() cannot deadlock
   std::unique_ptr<dynamic_reconfigure::Server<RepeatConfig>> reconfigure_server_;

@@ -29,6 +29,7 @@
 #include <optional>
 #include <string>
 
+#include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
@@ -76,11 +77,13 @@ class TeachNode {
   tf2_ros::TransformListener tf_listener_;
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;
-  ros::Subscriber odometry_subscriber_;
   ros::Publisher status_publisher_;
   ros::ServiceServer finish_service_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
+  // Last: its thread calls onOdometry, which uses the members above.
+  std::unique_ptr<OdometrySubscriber> odometry_subscriber_;
+  double odometry_wait_ = 0.2;  // [s] an image waits this long for the odometry of its stamp
 };
 
 }  // namespace homography_teach_repeat

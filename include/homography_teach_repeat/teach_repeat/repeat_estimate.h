@@ -36,6 +36,12 @@ struct RepeatOptions {
   // fast_hd/classic: every keyframe must have a plane (the route loads only then). The hybrid
   // pipeline's point localizer sets it false: keyframes without a plane are not used for poses.
   bool require_planes = true;
+  // fast_hd/classic: keyframes where the teach run turned (KeyframeReference::turn) give no pose.
+  // Their planes come from a motion that is mostly rotation, which says little about a plane, and
+  // their poses were biased by centimetres and a degree while claiming millimetres (the simulator's
+  // gallery, at every corner). The hybrid pipeline sets it with hybrid_skip_turn_keyframes (the
+  // filter turns on odometry there). Off by default: without a filter the corners need them.
+  bool skip_turn_keyframes_for_poses = false;
   int neighbour_search = 2;      // keyframes tried on each side of the tracked one
   int max_degraded_frames = 30;  // consecutive frames on a temporary reference
   // fast_hd: the RMS transfer error [px] of the inliers under the homography the estimated pose

@@ -9,9 +9,13 @@
 // correlation of log σ_predicted with log RMS_measured across keyframes (docs/route_audit.md).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20]
 //                        [--pixel-sigma 0.5] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
+// `--pixel-sigma measure`: the pixel noise of the prediction is the simulator's own, measured first:
+// each keyframe's view rendered twice with independent noise, features matched between the two, and
+// σ_px = 1.4826 · MAD of the matched keypoints' displacement / √2 (per coordinate, both pooled).
 // Writes OUT/route_audit_spread.json and OUT/route_audit_spread.png.
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -21,6 +25,8 @@
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
@@ -50,6 +56,36 @@ double correlation(const std::vector<double>& a, const std::vector<double>& b) {
   return sab / std::sqrt(saa * sbb);
 }
 
+// Pixel noise of the rendered images as the feature detector sees it: the same view rendered twice
+// with independent noise, the displacement of the matched keypoints (robust std over all views).
+double measurePixelSigma(const PlanarWorld& world, const WorldRenderer& renderer, const std::vector<Pose2D>& camera_poses,
+                         FeatureType type, cv::RNG& rng) {
+  FeatureExtractor extractor(FeatureOptions{type, 1500});
+  std::vector<double> displacements;
+  for (const Pose2D& pose : camera_poses) {
+    const auto a = extractor.extract(renderer.render(world, pose, 1.0, rng));
+    const auto b = extractor.extract(renderer.render(world, pose, 1.0, rng));
+    if (!a || !b) continue;
+    const auto matches = matchFeatures(*a, *b, MatchOptions());
+    if (!matches) continue;
+    for (const PointMatch& m : toPointMatches(*a, *b, *matches)) {
+      const Eigen::Vector2d d = m.current - m.reference;
+      if (d.norm() > 3.0) continue;  // a wrong match, not noise
+      displacements.push_back(d.x());
+      displacements.push_back(d.y());
+    }
+  }
+  if (displacements.size() < 20) throw std::runtime_error("too few keypoints to measure the pixel noise");
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double centre = median(displacements);
+  std::vector<double> deviations;
+  for (const double d : displacements) deviations.push_back(std::abs(d - centre));
+  return 1.4826 * median(deviations) / std::sqrt(2.0);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -57,7 +93,7 @@ int main(int argc, char** argv) {
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.5"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
                        {"plots", "1"}},
-                      "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX]\n"
+                      "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S] [--plots 0|1]");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
@@ -70,10 +106,27 @@ int main(int argc, char** argv) {
     if (!world) throw std::runtime_error(world.status().message());
     const auto route = loadRoute(args.text("route"));
     if (!route) throw std::runtime_error(route.status().message());
+    RenderOptions render;
+    render.camera_height = args.number("camera-height");
+    render.noise_sigma = args.number("noise");
+    render.blur_sigma = args.number("blur");
+    const PinholeCamera camera(route->info.camera);
+    const WorldRenderer renderer(camera, render);
+    const Pose2D& m = route->info.camera_mount;
+    const CameraMount mount(m.x, m.y, m.yaw);
+    cv::RNG rng(static_cast<std::uint64_t>(args.integer("seed")));
     RouteAuditOptions audit_options;
     audit_options.probe_offset_m = args.number("offset");
     audit_options.aliasing = false;
-    audit_options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+    const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
+    if (measure_pixel_sigma) {
+      std::vector<Pose2D> views;
+      for (const auto& k : route->keyframes) views.push_back(k.pose.compose(Pose2D(m.x, m.y, m.yaw)));
+      audit_options.repeat.pose.pixel_sigma_px = measurePixelSigma(*world, renderer, views, route->info.feature_type, rng);
+      std::printf("pixel noise of the rendered images, measured: %.3f px\n", audit_options.repeat.pose.pixel_sigma_px);
+    } else {
+      audit_options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+    }
     const auto audit = auditRoute(*route, audit_options);
     if (!audit) throw std::runtime_error(audit.status().message());
 
@@ -85,15 +138,6 @@ int main(int argc, char** argv) {
     repeat.max_tracked_frames = 0;
     auto localizer = RepeatLocalizer::create(*route, repeat);
     if (!localizer) throw std::runtime_error(localizer.status().message());
-    RenderOptions render;
-    render.camera_height = args.number("camera-height");
-    render.noise_sigma = args.number("noise");
-    render.blur_sigma = args.number("blur");
-    const PinholeCamera camera(route->info.camera);
-    const WorldRenderer renderer(camera, render);
-    const Pose2D& m = route->info.camera_mount;
-    const CameraMount mount(m.x, m.y, m.yaw);
-    cv::RNG rng(static_cast<std::uint64_t>(args.integer("seed")));
     // The robot whose camera is `offset` to the right of the keyframe's (as the audit's probe).
     const Pose2D probe = mount.cameraToBase(PlanarPose(audit_options.probe_offset_m, 0.0, 0.0));
 
@@ -102,7 +146,8 @@ int main(int argc, char** argv) {
     document["world"] = args.text("world");
     document["route"] = route->directory;
     document["setup"] = {{"offset_m", audit_options.probe_offset_m}, {"samples", samples},
-                         {"pixel_sigma", audit_options.repeat.pose.pixel_sigma_px}, {"noise", render.noise_sigma},
+                         {"pixel_sigma", audit_options.repeat.pose.pixel_sigma_px},
+                         {"pixel_sigma_measured", measure_pixel_sigma}, {"noise", render.noise_sigma},
                          {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height}};
     std::vector<double> log_predicted[3], log_measured[3];
     int within = 0, compared = 0;
