@@ -5,6 +5,7 @@
 #include <std_msgs/String.h>
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "homography_teach_repeat/teach_repeat/route.h"
@@ -50,6 +51,10 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.final_turn_gain = readParameter(nh, "final_turn_gain", o.final_turn_gain);
     o.align_final_heading = readParameter(nh, "align_final_heading", o.align_final_heading);
     o.final_heading_tolerance = readParameter(nh, "final_heading_tolerance", o.final_heading_tolerance);
+    o.degraded_speed_factor = readParameter(nh, "degraded_speed_factor", o.degraded_speed_factor);
+    o.lost_search_delay = readParameter(nh, "lost_search_delay", o.lost_search_delay);
+    o.lost_search_angle = readParameter(nh, "lost_search_angle", o.lost_search_angle);
+    o.lost_search_velocity = readParameter(nh, "lost_search_velocity", o.lost_search_velocity);
     o.validate();
   });
   return o;
@@ -64,6 +69,9 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
                                  : readParameter<std::string>(private_nh, "route_directory", "");
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   scan_timeout_ = readParameter(private_nh, "scan_timeout", 0.5);
+  bridging_slow_after_ = readCheckedParameter(private_nh, "bridging_slow_after", bridging_slow_after_,
+                                              [](double v) { return std::isfinite(v) && v >= 0.0; },
+                                              "must be finite and >= 0 s");
   stop_abort_timeout_ = readParameter(private_nh, "stop_abort_timeout", 20.0);
   shutdown_when_finished_ = readParameter(private_nh, "shutdown_when_finished", false);
   if (!(rate > 0.0) || !std::isfinite(rate)) {
@@ -275,10 +283,20 @@ void ControllerNode::onIntegrity(const IntegrityConstPtr& integrity) {
   integrity_ = integrity->level_name;
   integrity_reason_ = integrity->reason;
   if (!follower_) return;
-  const PoseTrust trust = integrity->level == Integrity::OK         ? PoseTrust::kOk
-                          : integrity->level == Integrity::DEGRADED ? PoseTrust::kDegraded
-                                                                    : PoseTrust::kLost;
-  follower_->setTrust(trust, integrity->reason, integrity->header.stamp.toSec(), !integrity->camera_silent);
+  PoseTrust trust = integrity->level == Integrity::OK         ? PoseTrust::kOk
+                    : integrity->level == Integrity::DEGRADED ? PoseTrust::kDegraded
+                                                              : PoseTrust::kLost;
+  std::string reason = integrity->reason;
+  // A pose bridged on odometry may be right (the integrity says OK), but the robot drives on it
+  // slowly: the view it looks for should not pass by at full speed.
+  if (trust == PoseTrust::kOk && bridging_slow_after_ > 0.0 && integrity->fixes.empty() &&
+      integrity->time_without_fix > bridging_slow_after_) {
+    trust = PoseTrust::kDegraded;
+    char text[120];
+    std::snprintf(text, sizeof text, "bridging on odometry, no fix for %.1f s", integrity->time_without_fix);
+    reason = text;
+  }
+  follower_->setTrust(trust, reason, integrity->header.stamp.toSec(), !integrity->camera_silent);
 }
 
 void ControllerNode::onScan(const sensor_msgs::LaserScanConstPtr& scan) {

@@ -59,6 +59,8 @@ TEST(IntegrityMonitor, RefusedFixesInnovationsAndTimeWithoutAFix) {
   IntegrityOptions options;
   options.nis_window = 4;
   options.lost_refused_in_a_row = 3;
+  options.degraded_time_without_fix = 2.0;
+  options.lost_time_without_fix = 20.0;
   IntegrityMonitor monitor(options);
   const Eigen::Matrix3d small = covariance(0.02, 0.005);
   EXPECT_EQ(monitor.assess(1.0, small).level, IntegrityLevel::kLost);  // no fix yet

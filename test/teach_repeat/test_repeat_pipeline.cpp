@@ -348,6 +348,7 @@ TEST_F(RepeatPipelineTest, HybridBridgesACoveredCameraAndRecovers) {
   options.localization.mode = RepeatMode::kHybrid;
   options.localization.neighbour_search = 0;  // only the keyframe the filter's pose is at
   options.max_unaided_distance = 0.55;
+  options.integrity.degraded_time_without_fix = 2.0;
   auto pipeline = RepeatPipeline::create(route(), options);
   ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
   const cv::Mat covered(480, 640, CV_8UC1, cv::Scalar(90));

@@ -70,6 +70,7 @@ class ControllerNode {
   double control_period_ = 0.05;
   double scan_timeout_ = 0.5;
   double stop_abort_timeout_ = 20.0;
+  double bridging_slow_after_ = 1.0;  // [s] without a fix: slow down as on DEGRADED (0: never)
   bool shutdown_when_finished_ = false;  // scripts: exit at the end of the route
   std::string default_directory_;
   RouteFollowerOptions options_;  // start-up / reconfigured values; goals override the sequence
