@@ -167,7 +167,7 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   };
   if (!estimate) return failSearch(estimate.status());
   if (estimate->has_pose) {
-    const Status gated = gate(odom_near_image, *estimate, &result.warning);
+    Status gated = gate(odom_near_image, *estimate, &result.warning);
     if (!gated.isOk()) {
       ++statistics_.gated;
       recordFix(stamp, false, estimate->inliers);
@@ -298,7 +298,7 @@ Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom
   if (!estimate->has_pose || !estimate->covariance_known) {
     return Status(StatusCode::kInvalidInput, "the estimate has no pose with a covariance");
   }
-  const Status gated = gate(odom_near_image, *estimate, &result->warning);
+  Status gated = gate(odom_near_image, *estimate, &result->warning);
   if (!gated.isOk()) {
     ++statistics_.gated;
     integrity_.addFix(stamp, false, std::nullopt, 0, estimate->inliers);
@@ -310,7 +310,7 @@ Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom
   // the filter starts again from it (docs/math.md §7.1).
   const bool restart = !filter_.aligned() || (odometry_gate_ && odometry_gate_->switchedReference());
   if (restart) {
-    const Status aligned = filter_.align(estimate->base_pose, *odom, estimate->covariance);
+    Status aligned = filter_.align(estimate->base_pose, *odom, estimate->covariance);
     if (!aligned.isOk()) return aligned;
     integrity_.addFix(stamp, true, std::nullopt, 0, estimate->inliers);
   } else {
