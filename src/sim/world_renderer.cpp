@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -31,6 +33,40 @@ cv::Vec3f sampleTiled(const cv::Mat& texture, double u, double v) {
   return out;
 }
 
+struct Surroundings {
+  cv::Vec3f floor;
+  cv::Vec3f ceiling;
+  double camera_height;
+  double lamp_contrast;
+  double lamp_spacing;
+};
+
+// The colour a ray sees: `hit` is where its horizontal part meets a wall (or nothing), `down` how
+// far it drops per unit of the ray parameter (the wall point's height is camera_height − down·t).
+cv::Vec3f colourAlong(const PlanarWorld& world, const std::optional<RayHit>& hit, double down,
+                      const Surroundings& s) {
+  if (!hit) return down > 0.0 ? s.floor : s.ceiling;
+  const Wall& wall = world.walls[static_cast<std::size_t>(hit->wall)];
+  const double z = s.camera_height - down * hit->range;  // height on the wall [m]
+  if (z < 0.0) return s.floor;
+  if (z > wall.height) return s.ceiling;
+  // Texture tiled from the wall's start point and up from the floor (image rows downward).
+  const double tu = hit->along / wall.texture_width * wall.texture.cols;
+  const double tv = (1.0 - std::fmod(z, wall.texture_height) / wall.texture_height) * wall.texture.rows;
+  cv::Vec3f colour = sampleTiled(wall.texture, tu - 0.5, tv - 0.5);
+  if (s.lamp_contrast > 0.0) {
+    colour *= static_cast<float>(1.0 + s.lamp_contrast * std::cos(2.0 * M_PI * hit->along / s.lamp_spacing));
+  }
+  return colour;
+}
+
+// The level camera's optical axes in base_link (columns: x right = −y, y down = −z, z forward = x).
+Eigen::Matrix3d levelOpticalToBase() {
+  Eigen::Matrix3d r;
+  r << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  return r;
+}
+
 }  // namespace
 
 void RenderOptions::validate() const {
@@ -39,51 +75,82 @@ void RenderOptions::validate() const {
   }
   if (!std::isfinite(noise_sigma) || noise_sigma < 0.0) throw std::invalid_argument("render: noise_sigma must be >= 0");
   if (!std::isfinite(blur_sigma) || blur_sigma < 0.0) throw std::invalid_argument("render: blur_sigma must be >= 0");
+  if (!std::isfinite(camera_pitch) || std::abs(camera_pitch) > 0.3) {
+    throw std::invalid_argument("render: camera_pitch must be within [-0.3, 0.3] rad");
+  }
+  if (!std::isfinite(camera_roll) || std::abs(camera_roll) > 0.3) {
+    throw std::invalid_argument("render: camera_roll must be within [-0.3, 0.3] rad");
+  }
+  if (!std::isfinite(exposure_time) || exposure_time < 0.0) throw std::invalid_argument("render: exposure_time must be >= 0");
+  if (!std::isfinite(lamp_contrast) || lamp_contrast < 0.0 || lamp_contrast >= 1.0) {
+    throw std::invalid_argument("render: lamp_contrast must be in [0, 1)");
+  }
+  if (!std::isfinite(lamp_spacing) || !(lamp_spacing > 0.0)) throw std::invalid_argument("render: lamp_spacing must be > 0");
 }
 
 WorldRenderer::WorldRenderer(const PinholeCamera& camera, const RenderOptions& options)
     : camera_(camera), options_(options) {
   options_.validate();
-  if (camera_.hasDistortion()) throw std::invalid_argument("render: the simulated camera must have no distortion");
+  if (!camera_.hasDistortion() && options_.camera_pitch == 0.0 && options_.camera_roll == 0.0) return;
+  // Each pixel's ray: undistorted through the lens model, then from the tilted camera to the
+  // level one (the optical frame of opticalToBase() against that of a level mount).
+  const Eigen::Matrix3d level_from_camera = levelOpticalToBase().transpose() * opticalToBase();
+  pixel_rays_.reserve(static_cast<std::size_t>(camera_.width()) * static_cast<std::size_t>(camera_.height()));
+  for (int v = 0; v < camera_.height(); ++v) {
+    for (int u = 0; u < camera_.width(); ++u) {
+      const Eigen::Vector2d n = camera_.pixelToNormalized(cv::Point2d(u, v));
+      pixel_rays_.push_back(level_from_camera * Eigen::Vector3d(n.x(), n.y(), 1.0));
+    }
+  }
+}
+
+Eigen::Matrix3d WorldRenderer::opticalToBase() const {
+  // The level mount's optical axes turned by REP-103 roll about x, then pitch about y (fixed axes).
+  const Eigen::Matrix3d tilt = (Eigen::AngleAxisd(options_.camera_pitch, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(options_.camera_roll, Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
+  return tilt * levelOpticalToBase();
 }
 
 cv::Mat WorldRenderer::render(const PlanarWorld& world, const Pose2D& camera_pose, double gain,
-                              cv::RNG& rng) const {
+                              cv::RNG& rng, double yaw_rate) const {
   const int width = camera_.width(), height = camera_.height();
   cv::Mat image(height, width, CV_8UC3);
   const Eigen::Vector2d origin(camera_pose.x, camera_pose.y);
   const Eigen::Vector2d forward(std::cos(camera_pose.yaw), std::sin(camera_pose.yaw));
   const Eigen::Vector2d right(std::sin(camera_pose.yaw), -std::cos(camera_pose.yaw));
-  const cv::Vec3f floor(world.floor_colour[0], world.floor_colour[1], world.floor_colour[2]);
-  const cv::Vec3f ceiling(world.ceiling_colour[0], world.ceiling_colour[1], world.ceiling_colour[2]);
+  const Surroundings surroundings{
+      cv::Vec3f(world.floor_colour[0], world.floor_colour[1], world.floor_colour[2]),
+      cv::Vec3f(world.ceiling_colour[0], world.ceiling_colour[1], world.ceiling_colour[2]), options_.camera_height,
+      options_.lamp_contrast, options_.lamp_spacing};
   auto put = [&](int row, int col, const cv::Vec3f& c) {
     cv::Vec3b& p = image.at<cv::Vec3b>(row, col);
     for (int k = 0; k < 3; ++k) p[k] = cv::saturate_cast<unsigned char>(gain * c[k]);
   };
-  for (int u = 0; u < width; ++u) {
-    // Ray of the column: forward + x_n right, x_n = (u - cx) / fx; its parameter t is the depth
-    // along the optical axis.
-    const double xn = (u - camera_.cx()) / camera_.fx();
-    const auto hit = castRay(world, origin, forward + xn * right);
+  if (pixel_rays_.empty()) {
+    for (int u = 0; u < width; ++u) {
+      // Ray of the column: forward + x_n right, x_n = (u - cx) / fx; its parameter t is the depth
+      // along the optical axis, and a pixel's ray drops y_n = (v - cy) / fy per unit of t.
+      const double xn = (u - camera_.cx()) / camera_.fx();
+      const auto hit = castRay(world, origin, forward + xn * right);
+      for (int v = 0; v < height; ++v) put(v, u, colourAlong(world, hit, (v - camera_.cy()) / camera_.fy(), surroundings));
+    }
+  } else {
+    std::size_t i = 0;
     for (int v = 0; v < height; ++v) {
-      const double yn = (v - camera_.cy()) / camera_.fy();  // down
-      if (!hit) {
-        put(v, u, yn > 0.0 ? floor : ceiling);
-        continue;
-      }
-      const Wall& wall = world.walls[static_cast<std::size_t>(hit->wall)];
-      const double z = options_.camera_height - yn * hit->range;  // height on the wall [m]
-      if (z < 0.0) {
-        put(v, u, floor);
-      } else if (z > wall.height) {
-        put(v, u, ceiling);
-      } else {
-        // Texture tiled from the wall's start point and up from the floor (image rows downward).
-        const double tu = hit->along / wall.texture_width * wall.texture.cols;
-        const double tv = (1.0 - std::fmod(z, wall.texture_height) / wall.texture_height) * wall.texture.rows;
-        put(v, u, sampleTiled(wall.texture, tu - 0.5, tv - 0.5));
+      for (int u = 0; u < width; ++u, ++i) {
+        const Eigen::Vector3d& ray = pixel_rays_[i];  // right, down, forward
+        const Eigen::Vector2d horizontal = ray.z() * forward + ray.x() * right;
+        const auto hit = horizontal.squaredNorm() > 1e-18 ? castRay(world, origin, horizontal) : std::nullopt;
+        put(v, u, colourAlong(world, hit, ray.y(), surroundings));
       }
     }
+  }
+  const double blur_length = std::abs(yaw_rate) * options_.exposure_time * camera_.fx();  // [px]
+  if (blur_length > 1.0) {
+    // The image sweeps horizontally by blur_length during the exposure: a box kernel along rows.
+    const int length = static_cast<int>(std::ceil(blur_length));
+    cv::blur(image, image, cv::Size(length, 1));
   }
   if (options_.blur_sigma > 0.0) cv::GaussianBlur(image, image, cv::Size(), options_.blur_sigma);
   if (options_.noise_sigma > 0.0) {

@@ -1,13 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iostream>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
+#include "homography_teach_repeat/geometry/camera_tilt.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
@@ -126,6 +130,155 @@ TEST(WorldRenderer, OcclusionAndClippingBehindTheCamera) {
   // Facing away from every wall but the green one: only green, floor and ceiling.
   const cv::Mat back = renderer.render(world, Pose2D(0.0, 0.0, M_PI), 1.0, rng);
   EXPECT_EQ(back.at<cv::Vec3b>(240, 320), cv::Vec3b(0, 255, 0));
+}
+
+// Mean absolute difference [grey levels] between `image` and `reference` sampled (bilinearly) at
+// `reference_pixel(u, v)`, over the pixels of `image` 40 px or more inside both images.
+template <typename Map>
+double meanDifferenceAfterMapping(const cv::Mat& image, const cv::Mat& reference, Map reference_pixel) {
+  cv::Mat map_x(image.size(), CV_32F), map_y(image.size(), CV_32F);
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) {
+      const cv::Point2d p = reference_pixel(u, v);
+      map_x.at<float>(v, u) = static_cast<float>(p.x);
+      map_y.at<float>(v, u) = static_cast<float>(p.y);
+    }
+  }
+  cv::Mat warped, a, b;
+  cv::remap(reference, warped, map_x, map_y, cv::INTER_LINEAR);
+  cv::cvtColor(image, a, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(warped, b, cv::COLOR_BGR2GRAY);
+  double sum = 0.0;
+  int count = 0;
+  for (int v = 40; v < image.rows - 40; ++v) {
+    for (int u = 40; u < image.cols - 40; ++u) {
+      const float x = map_x.at<float>(v, u), y = map_y.at<float>(v, u);
+      if (x < 40 || y < 40 || x > reference.cols - 41 || y > reference.rows - 41) continue;
+      sum += std::abs(static_cast<double>(a.at<uchar>(v, u)) - b.at<uchar>(v, u));
+      ++count;
+    }
+  }
+  EXPECT_GT(count, image.rows * image.cols / 4);
+  return sum / std::max(count, 1);
+}
+
+// A lens that distorts: each pixel shows what the ideal pinhole camera shows at its undistorted
+// position; camera_info's plumb_bob model maps one onto the other.
+TEST(WorldRenderer, ADistortingLensShowsTheUndistortedPinholeImage) {
+  const PlanarWorld world = oneWall();
+  CameraCalibration calibration = test_support::syntheticCalibration();
+  calibration.distortion_model = "plumb_bob";
+  calibration.distortion = {-0.25, 0.08, 0.001, -0.0005, 0.0};
+  const PinholeCamera lens(calibration);
+  const WorldRenderer distorted(lens, RenderOptions());
+  const WorldRenderer ideal(simCamera(), RenderOptions());
+  cv::RNG rng(1);
+  const Pose2D pose(0.3, 0.2, 0.1);
+  const cv::Mat image = distorted.render(world, pose, 1.0, rng);
+  const cv::Mat pinhole = ideal.render(world, pose, 1.0, rng);
+  const double mapped = meanDifferenceAfterMapping(image, pinhole, [&](int u, int v) { return lens.undistortPixel(cv::Point2d(u, v)); });
+  const double unmapped = meanDifferenceAfterMapping(image, pinhole, [](int u, int v) { return cv::Point2d(u, v); });
+  EXPECT_LT(mapped, 2.0) << "mean difference [grey levels] after undoing the lens";
+  EXPECT_GT(unmapped, 4.0 * mapped) << "the lens must visibly move the image";
+}
+
+// A mount that is not level is a rotation of the level camera: the tilted image is the level one
+// through K T K⁻¹. REP-103 roll ρ then pitch φ of base_link give T = Rz(−ρ) Rx(φ) in optical axes,
+// to first order the package's tilt Rx(φ) Rz(ψ) of docs/math.md §1.10 with ψ = −ρ.
+TEST(WorldRenderer, ATiltedMountIsTheLevelImageThroughTheTiltRotation) {
+  const PlanarWorld world = oneWall();
+  RenderOptions tilted_options;
+  tilted_options.camera_height = 1.2;
+  tilted_options.camera_pitch = 0.04;
+  tilted_options.camera_roll = -0.03;
+  RenderOptions level_options;
+  level_options.camera_height = 1.2;
+  const WorldRenderer tilted(simCamera(), tilted_options);
+  const WorldRenderer level(simCamera(), level_options);
+  cv::RNG rng(1);
+  const Pose2D pose(0.2, -0.1, 0.05);
+  const cv::Mat image = tilted.render(world, pose, 1.0, rng);
+  const cv::Mat reference = level.render(world, pose, 1.0, rng);
+  const Eigen::Matrix3d T = (Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(0.04, Eigen::Vector3d::UnitX())).toRotationMatrix();  // tilted = T · level
+  EXPECT_LT((T - cameraTilt(0.04, 0.03).T).norm(), 2e-3);
+  const Eigen::Matrix3d K = simCamera().K();
+  const Eigen::Matrix3d tilted_to_level = K * T.transpose() * K.inverse();
+  const double mapped = meanDifferenceAfterMapping(image, reference, [&](int u, int v) {
+    const Eigen::Vector3d p = tilted_to_level * Eigen::Vector3d(u, v, 1.0);
+    return cv::Point2d(p.x() / p.z(), p.y() / p.z());
+  });
+  const double unmapped = meanDifferenceAfterMapping(image, reference, [](int u, int v) { return cv::Point2d(u, v); });
+  EXPECT_LT(mapped, 2.0);
+  EXPECT_GT(unmapped, 4.0 * mapped);
+  // Looking down: the optical axis points below the horizon, the level mount's is horizontal.
+  const Eigen::Matrix3d optical_to_base = tilted.opticalToBase();
+  EXPECT_NEAR(optical_to_base(2, 2), -std::sin(0.04), 1e-12);
+  EXPECT_NEAR(level.opticalToBase().col(2).z(), 0.0, 1e-12);
+  EXPECT_NEAR((optical_to_base.transpose() * optical_to_base - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12);
+}
+
+// Lamps along the walls: each column's brightness is 1 + c cos(2π s / spacing) times the unlit
+// one, s the distance along the wall where the column's ray meets it.
+TEST(WorldRenderer, LampsModulateTheBrightnessAlongTheWall) {
+  PlanarWorld world;
+  world.source = "test";
+  world.walls.push_back(makeWall({4.0, 3.0}, {4.0, -3.0}, cv::Mat(10, 10, CV_8UC3, cv::Scalar(100, 100, 100)), 3.0));
+  RenderOptions lit;
+  lit.lamp_contrast = 0.4;
+  lit.lamp_spacing = 2.0;
+  const WorldRenderer lamps(simCamera(), lit), plain(simCamera(), RenderOptions());
+  cv::RNG rng(1);
+  const cv::Mat image = lamps.render(world, Pose2D(), 1.0, rng);
+  const cv::Mat reference = plain.render(world, Pose2D(), 1.0, rng);
+  for (const int u : {50, 200, 319, 450, 600}) {
+    const double xn = (u - simCamera().cx()) / simCamera().fx();
+    const double along = 3.0 + 4.0 * xn;  // the wall starts at y = 3 and runs towards −y; a ray meets y = −4 x_n
+    const double expected = 100.0 * (1.0 + 0.4 * std::cos(2.0 * M_PI * along / 2.0));
+    EXPECT_NEAR(image.at<cv::Vec3b>(240, u)[0], expected, 1.0) << "column " << u;
+    EXPECT_EQ(reference.at<cv::Vec3b>(240, u)[0], 100);
+  }
+}
+
+// Turning during the exposure smears the image along its rows, not along its columns.
+TEST(WorldRenderer, MotionBlurFollowsTheRotation) {
+  PlanarWorld world;  // fine random texture: about a texel per pixel at 4 m
+  world.source = "test";
+  cv::Mat texture(300, 600, CV_8UC3);
+  cv::RNG texture_rng(3);
+  texture_rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
+  Wall wall = makeWall({4.0, 3.0}, {4.0, -3.0}, texture, 3.0);
+  wall.texture_width = 6.0;
+  wall.texture_height = 3.0;
+  world.walls.push_back(wall);
+  RenderOptions options;
+  options.exposure_time = 0.02;
+  const WorldRenderer renderer(simCamera(), options);
+  cv::RNG rng(1);
+  const cv::Mat still = renderer.render(world, Pose2D(), 1.0, rng, 0.0);
+  const cv::Mat turning = renderer.render(world, Pose2D(), 1.0, rng, 1.0);  // 1 rad/s: 10 px in 20 ms
+  auto gradient = [](const cv::Mat& image, int dx, int dy) {
+    cv::Mat grey, g;
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    cv::Sobel(grey, g, CV_32F, dx, dy);
+    return cv::mean(cv::abs(g))[0];
+  };
+  const double across_still = gradient(still, 1, 0), along_still = gradient(still, 0, 1);
+  const double across_turning = gradient(turning, 1, 0), along_turning = gradient(turning, 0, 1);
+  std::cout << "mean |gradient| along rows / columns: still " << across_still << " / " << along_still
+            << ", turning " << across_turning << " / " << along_turning << "\n";
+  EXPECT_LT(across_turning / along_turning, 0.5 * across_still / along_still);
+}
+
+TEST(WorldRenderer, RefusesImpossibleCameraOptions) {
+  for (const auto& set : std::vector<std::function<void(RenderOptions&)>>{
+           [](RenderOptions& o) { o.camera_pitch = std::nan(""); }, [](RenderOptions& o) { o.camera_roll = 0.5; },
+           [](RenderOptions& o) { o.exposure_time = -0.01; }, [](RenderOptions& o) { o.lamp_contrast = 1.0; },
+           [](RenderOptions& o) { o.lamp_spacing = 0.0; }}) {
+    RenderOptions options;
+    set(options);
+    EXPECT_THROW(WorldRenderer(simCamera(), options), std::invalid_argument);
+  }
 }
 
 TEST(WorldRenderer, ScanOfASquareRoom) {

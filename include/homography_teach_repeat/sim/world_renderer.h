@@ -6,9 +6,18 @@
 // the ray's depth, so every pixel samples the wall texture exactly where the plane-induced
 // homography of that wall maps it (docs/math.md §1.2), bilinearly. Above and below the walls: ceiling
 // and floor colours. Optional illumination gain, Gaussian pixel noise and blur.
+//
+// The world as a real camera sees it (docs/simulator.md, "A real camera"): a lens with distortion
+// (the camera's plumb_bob or other model: each pixel's ray is the undistorted one), a mount that is
+// not level (pitch and roll of base_link, REP-103), lamps along the walls (a brightness that
+// varies along each wall), and motion blur from the robot's turning during the exposure. Any of
+// the first two switches from the per-column renderer to one ray per pixel (slower, same model).
 #pragma once
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
+
+#include <optional>
 
 #include <vector>
 
@@ -22,25 +31,38 @@ struct RenderOptions {
   double camera_height = 0.5;  // [m] optical centre above the floor, > 0
   double noise_sigma = 0.0;    // [grey levels] Gaussian pixel noise, >= 0
   double blur_sigma = 0.0;     // [px] Gaussian blur (optics), >= 0
+  double camera_pitch = 0.0;    // [rad] camera pitch about base_link's y (REP-103: + looks down), |.| <= 0.3
+  double camera_roll = 0.0;     // [rad] camera roll about base_link's x (REP-103: + right side down), |.| <= 0.3
+  double exposure_time = 0.0;  // [s] >= 0: the image is blurred along the rotation of this interval
+  double lamp_contrast = 0.0;  // [0, 1): wall brightness 1 + c cos(2 pi s / lamp_spacing), s along the wall
+  double lamp_spacing = 3.0;   // [m] > 0: distance between two lamps along a wall
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
 
 class WorldRenderer {
  public:
-  // The camera must be an ideal pinhole (no distortion). Throws std::invalid_argument otherwise.
+  // Throws std::invalid_argument naming a bad option.
   WorldRenderer(const PinholeCamera& camera, const RenderOptions& options);
 
   // BGR8 image of a camera whose optical centre is at (camera_pose.x, camera_pose.y) with the
-  // optical axis horizontal along camera_pose.yaw (world frame, REP-103). `gain` scales the
-  // brightness (illumination), `rng` draws the pixel noise.
-  cv::Mat render(const PlanarWorld& world, const Pose2D& camera_pose, double gain, cv::RNG& rng) const;
+  // optical axis along camera_pose.yaw (world frame, REP-103), tilted by the mount. `gain` scales the
+  // brightness (illumination), `rng` draws the pixel noise; `yaw_rate` [rad/s] is the robot's
+  // turning during the exposure (motion blur, with RenderOptions::exposure_time).
+  cv::Mat render(const PlanarWorld& world, const Pose2D& camera_pose, double gain, cv::RNG& rng,
+                 double yaw_rate = 0.0) const;
 
   const PinholeCamera& camera() const { return camera_; }
+  // The optical axes (x right, y down, z forward) of this mount in base_link (columns): the
+  // rotation of the camera's tf base_link -> optical frame, which the simulator publishes.
+  Eigen::Matrix3d opticalToBase() const;
 
  private:
   PinholeCamera camera_;
   RenderOptions options_;
+  // One ray per pixel (row-major) in the level optical frame, when the lens distorts or the mount
+  // tilts; empty for the ideal level pinhole, which is rendered column by column.
+  std::vector<Eigen::Vector3d> pixel_rays_;
 };
 
 // Ranges of a planar scanner at `pose` (world frame): `count` beams from angle_min to angle_max

@@ -8,7 +8,10 @@
 // "controller_state", "finished", "distance_travelled_m", "route_distance_m"}. "finished": the
 // controller's last state was "finished" (a robot that never left the start is 0 m from the end
 // pose: the errors alone would call that a success); distance_travelled_m: along the ground truth;
-// route_distance_m: laps × the taught path. Exit code 3 when the run did not finish (metrics and
+// route_distance_m: laps × the taught path; straight_speed_mps: the mean ground-truth speed while
+// turning slower than 0.1 rad/s, from the robot's first move to its last (stops on a straight
+// count: a robot that crawls or halts there is slow); min_wall_clearance_m: the closest the base
+// came to a wall. Exit code 3 when the run did not finish (metrics and
 // plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
 // must end at (a loop: its first keyframe, where the robot started; an open route: its last);
 // max/mean/final_path: distance to the polyline through the taught keyframes. And
@@ -33,6 +36,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -40,6 +44,8 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <utility>
+#include <vector>
 
 #include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/common/command_line.h"
@@ -68,6 +74,47 @@ struct Run {
   std::string last_state;
 };
 
+
+// Mean speed over the straight legs (turning slower than 0.1 rad/s) between the first and the last
+// ground-truth interval in which the robot moved; null for a robot that never moved.
+nlohmann::json straightLegSpeed(const Run& run) {
+  constexpr double kStraightYawRate = 0.1;  // [rad/s]
+  constexpr double kMoving = 0.02;          // [m/s]
+  std::vector<std::pair<double, double>> intervals;  // (speed, yaw rate) of each 0.02-0.2 s interval
+  std::vector<double> durations;
+  for (std::size_t i = 1; i < run.truth.size(); ++i) {
+    const double dt = run.truth_stamps[i] - run.truth_stamps[i - 1];
+    if (!(dt > 1e-3)) continue;
+    const double ds = std::hypot(run.truth[i].x - run.truth[i - 1].x, run.truth[i].y - run.truth[i - 1].y);
+    intervals.emplace_back(ds / dt, htr::wrapToPi(run.truth[i].yaw - run.truth[i - 1].yaw) / dt);
+    durations.push_back(dt);
+  }
+  std::size_t first = 0, last = intervals.size();
+  while (first < intervals.size() && intervals[first].first < kMoving) ++first;
+  while (last > first && intervals[last - 1].first < kMoving) --last;
+  double distance = 0.0, time = 0.0;
+  for (std::size_t i = first; i < last; ++i) {
+    if (std::abs(intervals[i].second) >= kStraightYawRate) continue;
+    distance += intervals[i].first * durations[i];
+    time += durations[i];
+  }
+  if (!(time > 0.0)) return nullptr;
+  return distance / time;
+}
+
+// The smallest distance [m] from base_link's ground-truth position to any wall.
+double minWallClearance(const htr::PlanarWorld& world, const std::vector<htr::Pose2D>& truth) {
+  double clearance = std::numeric_limits<double>::infinity();
+  for (const auto& p : truth) {
+    const Eigen::Vector2d q(p.x, p.y);
+    for (const auto& wall : world.walls) {
+      const Eigen::Vector2d e = wall.end - wall.start;
+      const double s = std::clamp((q - wall.start).dot(e) / e.squaredNorm(), 0.0, 1.0);
+      clearance = std::min(clearance, (wall.start + s * e - q).norm());
+    }
+  }
+  return clearance;
+}
 
 Run readRun(const std::string& path) {
   Run run;
@@ -247,6 +294,8 @@ int main(int argc, char** argv) {
     }
     if (htr::isClosedLoop(path, 1.0)) route_length += std::hypot(path.back().x - end.x, path.back().y - end.y);
     metrics["distance_travelled_m"] = travelled;
+    metrics["straight_speed_mps"] = straightLegSpeed(run);
+    metrics["min_wall_clearance_m"] = minWallClearance(*world, run.truth);
     metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));
     metrics["localization"] = scoreLocalization(run);
     if (!baseline.truth.empty()) {

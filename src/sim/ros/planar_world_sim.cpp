@@ -104,11 +104,34 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   calibration.fy = readParameter(p, "fy", 500.0);
   calibration.cx = readParameter(p, "cx", (calibration.width - 1) / 2.0);
   calibration.cy = readParameter(p, "cy", (calibration.height - 1) / 2.0);
+  calibration.distortion_model = readParameter<std::string>(p, "distortion_model", "plumb_bob");
+  calibration.distortion = readParameter<std::vector<double>>(p, "distortion", {0.0, 0.0, 0.0, 0.0, 0.0});
   RenderOptions render;
   render.camera_height = readParameter(p, "camera_height", render.camera_height);
   render.noise_sigma = readParameter(p, "image_noise_sigma", render.noise_sigma);
   render.blur_sigma = readParameter(p, "image_blur_sigma", render.blur_sigma);
+  render.camera_pitch = readParameter(p, "camera_pitch", render.camera_pitch);
+  render.camera_roll = readParameter(p, "camera_roll", render.camera_roll);
+  render.exposure_time = readParameter(p, "exposure_time", render.exposure_time);
+  render.lamp_contrast = readParameter(p, "lamp_contrast", render.lamp_contrast);
+  render.lamp_spacing = readParameter(p, "lamp_spacing", render.lamp_spacing);
   camera_height_ = render.camera_height;
+  light_level_ = readParameter(p, "light_level", light_level_);
+  if (!std::isfinite(light_level_) || !(light_level_ > 0.0) || light_level_ > 3.0) {
+    throw std::runtime_error("parameter '" + p.resolveName("light_level") + "' must be in (0, 3]");
+  }
+  const std::vector<double> latency = readParameter<std::vector<double>>(p, "image_latency", {0.0, 0.0});
+  if (latency.size() != 2 || !std::isfinite(latency[0]) || !std::isfinite(latency[1]) || latency[0] < 0.0 ||
+      latency[1] < latency[0] || latency[1] > 2.0) {
+    throw std::runtime_error("parameter '" + p.resolveName("image_latency") +
+                             "' must be [min, max] seconds with 0 <= min <= max <= 2");
+  }
+  latency_min_ = latency[0];
+  latency_max_ = latency[1];
+  drop_probability_ = readParameter(p, "image_drop_probability", drop_probability_);
+  if (!std::isfinite(drop_probability_) || drop_probability_ < 0.0 || drop_probability_ >= 1.0) {
+    throw std::runtime_error("parameter '" + p.resolveName("image_drop_probability") + "' must be in [0, 1)");
+  }
 
   OdometryErrorModel errors;
   errors.scale_error = readParameter(p, "odometry_scale_error", errors.scale_error);
@@ -161,8 +184,10 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   mount.child_frame_id = camera_frame_;
   mount.transform.translation.x = camera_mount_x_;
   mount.transform.translation.z = camera_height_;
+  // Level unless camera_pitch / camera_roll tilt it (a calibrated mount: the tf states the tilt).
+  const Eigen::Matrix3d r = renderer_->opticalToBase();
   tf2::Quaternion q;
-  tf2::Matrix3x3(0, 0, 1, -1, 0, 0, 0, -1, 0).getRotation(q);
+  tf2::Matrix3x3(r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2), r(2, 0), r(2, 1), r(2, 2)).getRotation(q);
   mount.transform.rotation.x = q.x();
   mount.transform.rotation.y = q.y();
   mount.transform.rotation.z = q.z();
@@ -198,6 +223,7 @@ void PlanarWorldSim::run() {
     clock_publisher_.publish(clock);
     if (step % odometry_every == 0) publishState(stamp);
     if (step % camera_every == 0) publishCamera(stamp, sim_seconds);
+    deliverImages(sim_seconds);
     if (scan_count_ > 0 && step % scan_every == 0) publishScan(stamp);
     double v = 0.0, w = 0.0;
     {
@@ -232,6 +258,7 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
   const double interval = (stamp - previous.stamp).toSec();
   const MeasuredVelocity odometry_velocity = velocityFromOdometry(previous.odometry, odom, interval, odometry_errors_);
   const MeasuredVelocity truth_velocity = velocityFromOdometry(previous.truth, truth, interval, OdometryErrorModel());
+  truth_yaw_rate_ = truth_velocity.w;
   last_state_ = StateSample{odom, truth, stamp};
   odometry_publisher_.publish(odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp, odom_frame_,
                                               base_frame_, odometry_variance_floor_, kUnobservedVariance));
@@ -253,7 +280,8 @@ void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
     rng_.fill(noise, cv::RNG::UNIFORM, 0, 4);
     image += noise;
   } else {
-    image = renderer_->render(world_, camera_pose, world_.illumination.gainAt(sim_seconds), rng_);
+    image = renderer_->render(world_, camera_pose, light_level_ * world_.illumination.gainAt(sim_seconds), rng_,
+                              truth_yaw_rate_);
   }
   std_msgs::Header header;
   header.stamp = stamp;
@@ -263,12 +291,26 @@ void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
   const PinholeCamera& camera = renderer_->camera();
   info.width = static_cast<uint32_t>(camera.width());
   info.height = static_cast<uint32_t>(camera.height());
-  info.distortion_model = "plumb_bob";
-  info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+  info.distortion_model = toString(camera.distortionModel()) == "none" ? "plumb_bob" : toString(camera.distortionModel());
+  info.D = camera.distortionCoefficients();
+  if (info.D.empty()) info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
   info.K = {camera.fx(), 0.0, camera.cx(), 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 1.0};
   info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   info.P = {camera.fx(), 0.0, camera.cx(), 0.0, 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
-  camera_publisher_.publish(*cv_bridge::CvImage(header, "bgr8", image).toImageMsg(), info);
+  // Stamped when taken; delivered after the latency, or never (a dropped frame).
+  if (drop_probability_ > 0.0 && rng_.uniform(0.0, 1.0) < drop_probability_) return;
+  const double latency = latency_max_ > latency_min_ ? rng_.uniform(latency_min_, latency_max_) : latency_min_;
+  pending_images_.push_back(
+      PendingImage{sim_seconds + latency, cv_bridge::CvImage(header, "bgr8", image).toImageMsg(), info});
+}
+
+void PlanarWorldSim::deliverImages(double sim_seconds) {
+  // Latencies are drawn per image, so a later image may be due first; deliver in stamp order
+  // as a camera driver does (it never reorders), each once its own time has come.
+  while (!pending_images_.empty() && pending_images_.front().deliver_at <= sim_seconds + 1e-9) {
+    camera_publisher_.publish(*pending_images_.front().image, pending_images_.front().info);
+    pending_images_.pop_front();
+  }
 }
 
 void PlanarWorldSim::publishScan(const ros::Time& stamp) {

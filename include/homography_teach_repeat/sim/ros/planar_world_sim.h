@@ -16,10 +16,13 @@
 #include <geometry_msgs/Twist.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <atomic>
+#include <deque>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -45,6 +48,8 @@ class PlanarWorldSim {
   void publishState(const ros::Time& stamp);
   void publishCamera(const ros::Time& stamp, double sim_seconds);
   void publishScan(const ros::Time& stamp);
+  // Publishes the images whose delivery time has come (latency), oldest first.
+  void deliverImages(double sim_seconds);
 
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
@@ -65,6 +70,19 @@ class PlanarWorldSim {
   double kidnap_time_ = -1.0;
   Pose2D kidnap_offset_;
   bool kidnapped_ = false;
+  // The world as a real camera sees it (docs/simulator.md): overall light level (gain), images
+  // delivered latency_min_..latency_max_ [s] after they were taken (stamped when taken), a fraction
+  // of them never delivered.
+  double light_level_ = 1.0;
+  double latency_min_ = 0.0, latency_max_ = 0.0;
+  double drop_probability_ = 0.0;
+  struct PendingImage {
+    double deliver_at;  // [simulated s]
+    sensor_msgs::ImagePtr image;
+    sensor_msgs::CameraInfo info;
+  };
+  std::deque<PendingImage> pending_images_;
+  double truth_yaw_rate_ = 0.0;  // [rad/s] over the last state interval (motion blur)
   int scan_count_ = 0;
   double scan_angle_min_ = -M_PI / 2, scan_angle_max_ = M_PI / 2, scan_range_max_ = 8.0;
   std::string odom_frame_, base_frame_, camera_frame_, world_frame_, ground_truth_prefix_;
