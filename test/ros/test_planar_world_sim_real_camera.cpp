@@ -63,12 +63,11 @@ TEST(PlanarWorldSimRealCamera, LensMountLatencyAndDrops) {
   ASSERT_FALSE(ages.empty());
   EXPECT_GT(ages.size(), 50u);
   EXPECT_LT(ages.size(), 90u);
-  // The age is measured with this node's last /clock, which can lag behind the simulator's when
-  // this process is slow (sanitizers: one image read 0 s): it under-estimates, never over-estimates
-  // an age (the clock messages processed before an image were published before it). So the upper
-  // bound holds per image, the lower one only for the bulk.
+  // The age is measured with this node's last /clock, which lags behind or runs ahead of the
+  // simulator's by the time messages wait in queues (under sanitizers one image read 0 s, another
+  // 0.2 s): per image only a loose upper bound, the latency itself in the median.
   std::sort(ages.begin(), ages.end());
-  EXPECT_LE(ages.back(), 0.15 + 0.05) << "oldest image [s]";  // in-order delivery waits behind a late one
+  EXPECT_LE(ages.back(), 0.15 + 0.15) << "oldest image [s]";
   EXPECT_GT(ages[ages.size() / 2], 0.05) << "median image age [s]";
 }
 
