@@ -17,8 +17,6 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include <optional>
-
 #include <vector>
 
 #include "homography_teach_repeat/geometry/pinhole_camera.h"

@@ -44,7 +44,6 @@
 #include <iostream>
 #include <limits>
 #include <map>
-#include <utility>
 #include <vector>
 
 #include "homography_teach_repeat/Integrity.h"
@@ -80,23 +79,24 @@ struct Run {
 nlohmann::json straightLegSpeed(const Run& run) {
   constexpr double kStraightYawRate = 0.1;  // [rad/s]
   constexpr double kMoving = 0.02;          // [m/s]
-  std::vector<std::pair<double, double>> intervals;  // (speed, yaw rate) of each 0.02-0.2 s interval
-  std::vector<double> durations;
+  struct Interval {
+    double duration, speed, yaw_rate;  // [s], [m/s], [rad/s] between two ground-truth samples
+  };
+  std::vector<Interval> intervals;
   for (std::size_t i = 1; i < run.truth.size(); ++i) {
     const double dt = run.truth_stamps[i] - run.truth_stamps[i - 1];
     if (!(dt > 1e-3)) continue;
     const double ds = std::hypot(run.truth[i].x - run.truth[i - 1].x, run.truth[i].y - run.truth[i - 1].y);
-    intervals.emplace_back(ds / dt, htr::wrapToPi(run.truth[i].yaw - run.truth[i - 1].yaw) / dt);
-    durations.push_back(dt);
+    intervals.push_back({dt, ds / dt, htr::wrapToPi(run.truth[i].yaw - run.truth[i - 1].yaw) / dt});
   }
   std::size_t first = 0, last = intervals.size();
-  while (first < intervals.size() && intervals[first].first < kMoving) ++first;
-  while (last > first && intervals[last - 1].first < kMoving) --last;
+  while (first < intervals.size() && intervals[first].speed < kMoving) ++first;
+  while (last > first && intervals[last - 1].speed < kMoving) --last;
   double distance = 0.0, time = 0.0;
   for (std::size_t i = first; i < last; ++i) {
-    if (std::abs(intervals[i].second) >= kStraightYawRate) continue;
-    distance += intervals[i].first * durations[i];
-    time += durations[i];
+    if (std::abs(intervals[i].yaw_rate) >= kStraightYawRate) continue;
+    distance += intervals[i].speed * intervals[i].duration;
+    time += intervals[i].duration;
   }
   if (!(time > 0.0)) return nullptr;
   return distance / time;

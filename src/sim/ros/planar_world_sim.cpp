@@ -166,6 +166,17 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
     robot_.emplace(Pose2D(start[0], start[1], start[2]), errors, limits,
                    static_cast<std::uint64_t>(readParameter(p, "seed", 1)) + 1);
   });
+  // The camera's calibration as camera_info carries it (the same for every frame).
+  const PinholeCamera& camera = renderer_->camera();
+  camera_info_.width = static_cast<uint32_t>(camera.width());
+  camera_info_.height = static_cast<uint32_t>(camera.height());
+  camera_info_.distortion_model =
+      camera.distortionModel() == DistortionModel::kNone ? "plumb_bob" : toString(camera.distortionModel());
+  camera_info_.D = camera.distortionCoefficients();
+  if (camera_info_.D.empty()) camera_info_.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+  camera_info_.K = {camera.fx(), 0.0, camera.cx(), 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 1.0};
+  camera_info_.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  camera_info_.P = {camera.fx(), 0.0, camera.cx(), 0.0, 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
   if (scan_count_ < 0 || !(scan_range_max_ > 0.0) || !(scan_angle_max_ >= scan_angle_min_)) {
     throw std::runtime_error("invalid scan parameters in " + p.getNamespace());
   }
@@ -271,6 +282,8 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
 
 void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
   if (camera_publisher_.getNumSubscribers() == 0) return;
+  // A dropped frame is never delivered: not rendered either.
+  if (drop_probability_ > 0.0 && rng_.uniform(0.0, 1.0) < drop_probability_) return;
   const Pose2D camera_pose = robot_->truth().compose(Pose2D(camera_mount_x_, 0.0, 0.0));
   cv::Mat image;
   if (world_.cameraCoveredAt(Eigen::Vector2d(robot_->truth().x, robot_->truth().y))) {
@@ -286,19 +299,9 @@ void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
   std_msgs::Header header;
   header.stamp = stamp;
   header.frame_id = camera_frame_;
-  sensor_msgs::CameraInfo info;
+  sensor_msgs::CameraInfo info = camera_info_;
   info.header = header;
-  const PinholeCamera& camera = renderer_->camera();
-  info.width = static_cast<uint32_t>(camera.width());
-  info.height = static_cast<uint32_t>(camera.height());
-  info.distortion_model = toString(camera.distortionModel()) == "none" ? "plumb_bob" : toString(camera.distortionModel());
-  info.D = camera.distortionCoefficients();
-  if (info.D.empty()) info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
-  info.K = {camera.fx(), 0.0, camera.cx(), 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 1.0};
-  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {camera.fx(), 0.0, camera.cx(), 0.0, 0.0, camera.fy(), camera.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
-  // Stamped when taken; delivered after the latency, or never (a dropped frame).
-  if (drop_probability_ > 0.0 && rng_.uniform(0.0, 1.0) < drop_probability_) return;
+  // Stamped when taken; delivered after the latency.
   const double latency = latency_max_ > latency_min_ ? rng_.uniform(latency_min_, latency_max_) : latency_min_;
   pending_images_.push_back(
       PendingImage{sim_seconds + latency, cv_bridge::CvImage(header, "bgr8", image).toImageMsg(), info});

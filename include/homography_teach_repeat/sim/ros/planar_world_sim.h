@@ -82,6 +82,7 @@ class PlanarWorldSim {
     sensor_msgs::CameraInfo info;
   };
   std::deque<PendingImage> pending_images_;
+  sensor_msgs::CameraInfo camera_info_;  // the calibration published with every image
   double truth_yaw_rate_ = 0.0;  // [rad/s] over the last state interval (motion blur)
   int scan_count_ = 0;
   double scan_angle_min_ = -M_PI / 2, scan_angle_max_ = M_PI / 2, scan_range_max_ = 8.0;
