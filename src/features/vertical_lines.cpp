@@ -134,18 +134,20 @@ Expected<std::vector<VerticalLine>> VerticalLineExtractor::extract(const cv::Mat
     }
     // The straightness test and the line fit are done where lines are straight: in undistorted
     // pixels when a lens model is given (every other point is undistorted: a long line under
-    // radial distortion is a curve in the image).
-    const bool undistort = camera != nullptr && camera->hasDistortion();
+    // radial distortion is a curve in the image), and levelled when the mount is tilted (a wall's
+    // vertical edge is vertical in the level camera only, docs/math.md §1.1).
+    const bool undistort = camera != nullptr && !camera->isIdealPinhole();
     fit_points.clear();
     for (std::size_t i = 0; i < chain.points.size(); i += undistort ? 2 : 1) {
       const auto& p = chain.points[i];
       if (undistort) {
         const cv::Point2d u = camera->undistortPixel({p.x(), p.y()});
-        fit_points.emplace_back(u.x, u.y);
+        if (std::isfinite(u.x) && std::isfinite(u.y)) fit_points.emplace_back(u.x, u.y);
       } else {
         fit_points.emplace_back(p.x(), p.y());
       }
     }
+    if (fit_points.size() < 2) continue;
     // Least squares x = a + b (y − ȳ).
     double mean_x = 0.0, mean_y = 0.0;
     for (const auto& p : fit_points) {

@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 
+#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
 #include <cmath>
@@ -79,7 +80,9 @@ PinholeCamera::PinholeCamera(const CameraCalibration& c)
       cx_(c.cx),
       cy_(c.cy),
       model_(DistortionModel::kNone),
-      coefficients_(c.distortion) {
+      coefficients_(c.distortion),
+      camera_to_level_(c.camera_to_level),
+      levelled_(false) {
   require(c.width > 0 && c.height > 0, "image size must be positive", c);
   require(std::isfinite(c.fx) && c.fx > 0.0, "fx must be finite and > 0", c);
   require(std::isfinite(c.fy) && c.fy > 0.0, "fy must be finite and > 0", c);
@@ -95,6 +98,14 @@ PinholeCamera::PinholeCamera(const CameraCalibration& c)
                                   "] is not finite " + describe(c));
     }
   }
+  require(camera_to_level_.allFinite(), "camera_to_level is not finite", c);
+  require((camera_to_level_.transpose() * camera_to_level_ - Eigen::Matrix3d::Identity()).norm() < 1e-6 &&
+              camera_to_level_.determinant() > 0.0,
+          "camera_to_level is not a rotation", c);
+  // The levelled optical axis: beyond 60° from the measured one the level camera's field of view
+  // holds little of the measured image.
+  require(camera_to_level_(2, 2) > 0.5, "camera_to_level turns the optical axis by more than 60 deg", c);
+  levelled_ = !camera_to_level_.isIdentity(1e-12);
   const std::size_t n = coefficients_.size();
   switch (model_) {
     case DistortionModel::kNone:
@@ -147,6 +158,7 @@ CameraCalibration PinholeCamera::calibration() const {
   c.cy = cy_;
   c.distortion_model = toString(model_);
   c.distortion = coefficients_;
+  c.camera_to_level = camera_to_level_;
   return c;
 }
 
@@ -196,17 +208,19 @@ std::vector<cv::Point2d> PinholeCamera::undistortPixels(
 }
 
 cv::Point2d PinholeCamera::distortPixel(const cv::Point2d& undistorted) const {
-  const Eigen::Vector2d n((undistorted.x - cx_) / fx_, (undistorted.y - cy_) / fy_);
-  const Eigen::Vector2d d = distortNormalized(n);
-  return cv::Point2d(fx_ * d.x() + cx_, fy_ * d.y() + cy_);
+  return project(Eigen::Vector3d((undistorted.x - cx_) / fx_, (undistorted.y - cy_) / fy_, 1.0));
 }
 
 Eigen::Vector2d PinholeCamera::pixelToNormalized(const cv::Point2d& distorted) const {
-  return undistortNormalized(
-      Eigen::Vector2d((distorted.x - cx_) / fx_, (distorted.y - cy_) / fy_));
+  const Eigen::Vector2d n = undistortNormalized(Eigen::Vector2d((distorted.x - cx_) / fx_, (distorted.y - cy_) / fy_));
+  if (!levelled_) return n;
+  const Eigen::Vector3d ray = camera_to_level_ * n.homogeneous();
+  if (!(ray.z() > 0.0)) return Eigen::Vector2d(kNaN, kNaN);
+  return ray.head<2>() / ray.z();
 }
 
-cv::Point2d PinholeCamera::project(const Eigen::Vector3d& point_optical) const {
+cv::Point2d PinholeCamera::project(const Eigen::Vector3d& point_level) const {
+  const Eigen::Vector3d point_optical = levelled_ ? Eigen::Vector3d(camera_to_level_.transpose() * point_level) : point_level;
   if (!(point_optical.z() > 0.0)) return cv::Point2d(kNaN, kNaN);
   const Eigen::Vector2d d = distortNormalized(point_optical.head<2>() / point_optical.z());
   return cv::Point2d(fx_ * d.x() + cx_, fy_ * d.y() + cy_);

@@ -115,7 +115,8 @@ CameraMount CameraMount::fromExtrinsic(const Eigen::Isometry3d& base_T_optical,
     std::ostringstream msg;
     msg << "CameraMount: the camera is not level: its optical y axis is " << tilt
         << " rad from the downward vertical of base_link (allowed " << max_tilt_rad
-        << " rad). Fast-HD assumes the camera moves in its own XZ plane.";
+        << " rad): the images of a tilted camera are levelled (CameraMount::cameraToLevel), but not by more "
+           "than that; check the mount and its tf.";
     throw std::invalid_argument(msg.str());
   }
   const double yaw = std::atan2(optical_z.y(), optical_z.x());
@@ -134,6 +135,25 @@ double CameraMount::tiltOf(const Eigen::Isometry3d& base_T_optical) {
 double CameraMount::elevationOf(const Eigen::Isometry3d& base_T_optical) {
   if (!base_T_optical.matrix().allFinite()) return std::numeric_limits<double>::quiet_NaN();
   return std::asin(std::clamp(base_T_optical.linear().col(2).z(), -1.0, 1.0));
+}
+
+Eigen::Matrix3d CameraMount::cameraToLevel(const Eigen::Isometry3d& base_T_optical) {
+  const Eigen::Matrix3d rotation = base_T_optical.linear();
+  if (!base_T_optical.matrix().allFinite() ||
+      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
+    throw std::invalid_argument("CameraMount: the camera extrinsic is not a finite rigid transform");
+  }
+  const Eigen::Vector3d optical_z = rotation.col(2);
+  const Eigen::Vector2d forward = optical_z.head<2>();
+  if (!(forward.norm() > std::sin(M_PI / 180.0))) {
+    throw std::invalid_argument("CameraMount: the optical axis is vertical: no level camera looks where it looks");
+  }
+  const double yaw = std::atan2(forward.y(), forward.x());
+  // Level camera axes in base_link: x = −y_base, y = −z_base, z = x_base, turned by the yaw.
+  Eigen::Matrix3d level_in_base;
+  level_in_base << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  level_in_base = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * level_in_base;
+  return level_in_base.transpose() * rotation;
 }
 
 Pose2D CameraMount::cameraToBase(const PlanarPose& camera_relative) const {

@@ -9,7 +9,7 @@ PointMatches undistortMatches(const PinholeCamera& camera, const PointMatches& m
     kept->clear();
     kept->reserve(measured.size());
   }
-  const bool distorted = camera.hasDistortion();
+  const bool distorted = !camera.isIdealPinhole();
   for (std::size_t i = 0; i < measured.size(); ++i) {
     PointMatch m = measured[i];
     if (distorted) {

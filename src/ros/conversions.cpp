@@ -122,7 +122,7 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform) {
   return iso;
 }
 
-Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
+Expected<MountFromTf> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
                                         const std::string& camera_frame, double max_tilt_rad) {
   geometry_msgs::TransformStamped mount;
   try {
@@ -131,7 +131,9 @@ Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const 
     return Status(StatusCode::kInvalidInput, "no tf " + base_frame + " -> " + camera_frame + ": " + e.what());
   }
   try {
-    return CameraMount::fromExtrinsic(toIsometry(mount.transform), max_tilt_rad);
+    const Eigen::Isometry3d base_T_optical = toIsometry(mount.transform);
+    return MountFromTf{CameraMount::fromExtrinsic(base_T_optical, max_tilt_rad), CameraMount::cameraToLevel(base_T_optical),
+                       CameraMount::tiltOf(base_T_optical)};
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, std::string("camera mount: ") + e.what());
   }

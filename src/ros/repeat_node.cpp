@@ -26,6 +26,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   map_frame_ = readParameter<std::string>(private_nh, "map_frame", "map");
   odom_frame_ = readParameter<std::string>(private_nh, "odom_frame", "odom");
   publish_tf_ = readParameter(private_nh, "publish_tf", false);
+  base_frame_ = readParameter<std::string>(private_nh, "base_frame", "base_link");
+  max_mount_change_ = readCheckedParameter(private_nh, "max_mount_change", max_mount_change_, positive, "must be finite and > 0");
   unobserved_variance_ = readCheckedParameter(private_nh, "unobserved_variance", 1e6, positive, "must be > 0");
   image_timeout_ = readCheckedParameter(private_nh, "image_timeout", image_timeout_, positive, "must be finite and > 0");
   // OpenCV's worker threads (feature extraction, matching) for the whole process (a nodelet
@@ -37,6 +39,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   const RepeatPipelineOptions options = readRepeatPipelineOptions(private_nh);
   const auto route = loadRoute(directory);
   if (!route) throw std::runtime_error(route.status().message());
+  taught_camera_to_level_ = route->info.camera.camera_to_level;
   auto pipeline = RepeatPipeline::create(*route, options);
   if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
   pipeline_.emplace(std::move(*pipeline));
@@ -139,6 +142,7 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
   const ros::WallTime started = ros::WallTime::now();
   // The odometry of this image's instant may still be on its way (odometry_subscriber.h).
   odometry_subscriber_->waitFor(image->header.stamp.toSec(), odometry_wait_);
+  if (!mount_checked_) checkCameraMount(image->header.frame_id);
   std::lock_guard<std::mutex> lock(mutex_);
   last_image_arrival_ = ros::Time::now();
   const auto cv_image = ros_conversions::toCvImage(image);
@@ -150,6 +154,30 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
   timing.age_ms = age_ms;
   timing.localize = result.timing;
   timing_.add(timing);
+}
+
+void RepeatNode::checkCameraMount(const std::string& camera_frame) {
+  mount_checked_ = true;
+  // Any tilt up to 60°: the question is only whether it is the taught one.
+  const auto mount = ros_conversions::lookupCameraMount(tf_buffer_, base_frame_, camera_frame, M_PI / 3.0);
+  std::string warning;
+  if (!mount) {
+    ROS_WARN("repeat_node: the camera mount cannot be compared with the taught one (%s); the route's levelling is used",
+             mount.status().message().c_str());
+    return;
+  }
+  const double change = Eigen::AngleAxisd(taught_camera_to_level_ * mount->camera_to_level.transpose()).angle();
+  if (change > max_mount_change_) {
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  "the camera mount is turned %.2f deg from the teach run's (tf %s -> %s): the route's levelling is used, "
+                  "the difference is the tilt nuisance's (tilt_sigma) or re-teach",
+                  change * 180.0 / M_PI, base_frame_.c_str(), camera_frame.c_str());
+    warning = text;
+    ROS_WARN("repeat_node: %s", text);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  mount_warning_ = warning;
 }
 
 void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFrameResult& result,
@@ -281,10 +309,13 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   } else if (last_integrity_.level != IntegrityLevel::kOk) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                  "integrity " + toString(last_integrity_.level) + ": " + last_integrity_.reason);
+  } else if (!mount_warning_.empty()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, mount_warning_);
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "localized");
   }
   stat.add("frames", s.frames);
+  if (!mount_warning_.empty()) stat.add("camera mount", mount_warning_);
   stat.add("seconds since the last image", s.frames > 0 ? silence : -1.0);
   stat.add("integrity", toString(last_integrity_.level) +
                             (last_integrity_.reason.empty() ? "" : ": " + last_integrity_.reason));

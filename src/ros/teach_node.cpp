@@ -121,8 +121,16 @@ Status TeachNode::startSession(const sensor_msgs::CameraInfo& camera_info) {
   const auto mount = ros_conversions::lookupCameraMount(tf_buffer_, base_frame_, camera_info.header.frame_id,
                                                        max_camera_tilt_rad_);
   if (!mount) return mount.status();
-  const Pose2D mount_pose = mount->forwardFrame();
-  auto session = TeachSession::start(options_, camera->calibration(), mount_pose);
+  const Pose2D mount_pose = mount->mount.forwardFrame();
+  // A tilted mount: every measured ray is levelled before anything sees it (docs/math.md §1.1);
+  // the route keeps the rotation, so the repeat levels its images the same way.
+  CameraCalibration calibration = camera->calibration();
+  calibration.camera_to_level = mount->camera_to_level;
+  if (mount->tilt_rad > 1e-4) {
+    ROS_INFO("teach_node: the camera is tilted %.2f deg from level (tf %s -> %s): its images are levelled",
+             mount->tilt_rad * 180.0 / M_PI, base_frame_.c_str(), camera_info.header.frame_id.c_str());
+  }
+  auto session = TeachSession::start(options_, calibration, mount_pose);
   if (!session) return session.status();
   session_.emplace(std::move(*session));
   return Status::ok();

@@ -102,16 +102,20 @@ Status TrifocalLocalizerNode::ensureLocalizer(const sensor_msgs::CameraInfo& cam
   const auto mount =
       ros_conversions::lookupCameraMount(tf_buffer_, base_frame_, camera_info.header.frame_id, max_camera_tilt_);
   if (!mount) return mount.status();
+  // Bearings are taken in the level camera (docs/math.md §1.1): a tilted mount's rays are levelled.
+  CameraCalibration calibration = camera->calibration();
+  calibration.camera_to_level = mount->camera_to_level;
   TrifocalLocalizerOptions options = options_;
   // The threshold in pixels of this camera (bearing noise scales with 1/f).
   options.ransac.max_transfer_error = max_transfer_error_px_ / camera->fx();
   try {
-    localizer_.emplace(*camera, *mount, options);
+    localizer_.emplace(PinholeCamera(calibration), mount->mount, options);
   } catch (const std::invalid_argument& e) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
   ROS_INFO("trifocal_localizer: camera %dx%d, fx %.1f px, mount (%.2f, %.2f, %.3f)", camera->width(),
-           camera->height(), camera->fx(), mount->forwardFrame().x, mount->forwardFrame().y, mount->forwardFrame().yaw);
+           camera->height(), camera->fx(), mount->mount.forwardFrame().x, mount->mount.forwardFrame().y,
+           mount->mount.forwardFrame().yaw);
   return Status::ok();
 }
 

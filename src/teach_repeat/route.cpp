@@ -225,6 +225,12 @@ Status RouteWriter::writeIndex() const {
   out << YAML::Key << "cy" << YAML::Value << info.camera.cy;
   out << YAML::Key << "distortion_model" << YAML::Value << info.camera.distortion_model;
   out << YAML::Key << "distortion" << YAML::Value << YAML::Flow << info.camera.distortion;
+  if (!info.camera.camera_to_level.isIdentity(1e-12)) {
+    // Row-major, the levelling of a tilted mount (pinhole_camera.h); absent for a level camera.
+    std::vector<double> rows;
+    for (int r = 0; r < 3; ++r) for (int k = 0; k < 3; ++k) rows.push_back(info.camera.camera_to_level(r, k));
+    out << YAML::Key << "camera_to_level" << YAML::Value << YAML::Flow << rows;
+  }
   out << YAML::EndMap;
   out << YAML::Key << "camera_mount" << YAML::Value;
   emitPose(out, info.camera_mount);
@@ -285,6 +291,11 @@ Expected<Route> loadRoute(const std::string& directory) {
     c.cy = reader.finite(camera, "cy");
     c.distortion_model = reader.get<std::string>(camera, "distortion_model");
     c.distortion = reader.get<std::vector<double>>(camera, "distortion");
+    if (camera["camera_to_level"]) {
+      const auto rows = reader.get<std::vector<double>>(camera, "camera_to_level");
+      if (rows.size() != 9) throw reader.error(camera["camera_to_level"], "field 'camera_to_level' needs 9 numbers (row-major)");
+      for (int r = 0; r < 3; ++r) for (int k = 0; k < 3; ++k) c.camera_to_level(r, k) = rows[static_cast<std::size_t>(3 * r + k)];
+    }
     try {
       PinholeCamera check(c);
       (void)check;

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Geometry>
+
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 
 using namespace homography_teach_repeat;
@@ -165,4 +167,52 @@ TEST(PinholeCamera, IsInside) {
   EXPECT_TRUE(camera.isInside(cv::Point2d(639, 479)));
   EXPECT_FALSE(camera.isInside(cv::Point2d(639.5, 10)));
   EXPECT_FALSE(camera.isInside(cv::Point2d(NAN, 10)));
+}
+
+namespace {
+// A mount pitched `pitch` (down, about the optical x axis) and rolled `roll` (about the optical z
+// axis): the rotation of the optical frame into the level camera frame.
+Eigen::Matrix3d mountTilt(double pitch, double roll) {
+  return (Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+}  // namespace
+
+// A tilted camera's measured pixel of a point is the level camera's pixel of it once levelled.
+TEST(PinholeCamera, LevellingTurnsMeasuredPixelsIntoTheLevelCamera) {
+  CameraCalibration c = calibration("plumb_bob", {-0.15, 0.03, 0.0, 0.0, 0.0});
+  c.camera_to_level = mountTilt(0.05, 0.02);
+  const PinholeCamera tilted(c);
+  EXPECT_TRUE(tilted.isLevelled());
+  EXPECT_FALSE(tilted.isIdealPinhole());
+  const PinholeCamera level(calibration("none", {}));
+  for (const Eigen::Vector3d& point_level : {Eigen::Vector3d(0.4, -0.2, 2.0), Eigen::Vector3d(-1.0, 0.3, 3.0),
+                                            Eigen::Vector3d(0.0, 0.0, 5.0)}) {
+    // What the tilted camera measures: the point in its own optical frame through its lens.
+    const cv::Point2d measured = tilted.project(point_level);
+    const Eigen::Vector3d in_optical = c.camera_to_level.transpose() * point_level;
+    const PinholeCamera lens_only(calibration("plumb_bob", {-0.15, 0.03, 0.0, 0.0, 0.0}));
+    const cv::Point2d expected_measured = lens_only.project(in_optical);
+    EXPECT_NEAR(measured.x, expected_measured.x, 1e-9);
+    EXPECT_NEAR(measured.y, expected_measured.y, 1e-9);
+    const cv::Point2d levelled = tilted.undistortPixel(measured);
+    const cv::Point2d ideal = level.project(point_level);
+    EXPECT_NEAR(levelled.x, ideal.x, 1e-6);
+    EXPECT_NEAR(levelled.y, ideal.y, 1e-6);
+  }
+  expectRoundTrip(tilted, 1e-6);
+  EXPECT_LT((tilted.calibration().camera_to_level - c.camera_to_level).norm(), 1e-15);
+}
+
+TEST(PinholeCamera, RejectsALevellingThatIsNotARotation) {
+  CameraCalibration c = calibration("none", {});
+  c.camera_to_level = 2.0 * Eigen::Matrix3d::Identity();
+  expectRejected(c, "camera_to_level is not a rotation");
+  c.camera_to_level = -Eigen::Matrix3d::Identity();
+  expectRejected(c, "camera_to_level is not a rotation");  // a reflection (det −1)
+  c.camera_to_level = Eigen::Matrix3d::Identity();
+  c.camera_to_level(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  expectRejected(c, "camera_to_level is not finite");
+  c.camera_to_level = Eigen::AngleAxisd(1.2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  expectRejected(c, "more than 60 deg");
 }

@@ -169,3 +169,23 @@ TEST(CameraMount, RejectsTiltedCameraAndNaN) {
   EXPECT_THROW(CameraMount::fromExtrinsic(bad, 0.05), std::invalid_argument);
   EXPECT_THROW(CameraMount(0.0, NAN, 0.0), std::invalid_argument);
 }
+
+// The levelling of a tilted mount: the level frame's y is base_link's down, its z is horizontal
+// along the mount's yaw, and the optical axis keeps its yaw; a level mount is not turned.
+TEST(CameraMount, CameraToLevelUndoesPitchAndRoll) {
+  EXPECT_TRUE(CameraMount::cameraToLevel(opticalExtrinsic(0.2, 0.0, 0.8, 0.4, 0.0)).isIdentity(1e-12));
+  Eigen::Isometry3d tilted = opticalExtrinsic(0.2, 0.05, 0.8, 0.4, 0.035);
+  tilted.linear() = tilted.linear() * Eigen::AngleAxisd(0.017, Eigen::Vector3d::UnitZ()).toRotationMatrix();  // roll
+  const Eigen::Matrix3d camera_to_level = CameraMount::cameraToLevel(tilted);
+  EXPECT_LT((camera_to_level.transpose() * camera_to_level - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  // The level frame's axes in base_link: columns of R_base_optical · camera_to_levelᵀ.
+  const Eigen::Matrix3d level_in_base = tilted.linear() * camera_to_level.transpose();
+  EXPECT_LT((level_in_base.col(1) - Eigen::Vector3d(0, 0, -1)).norm(), 1e-12);
+  EXPECT_NEAR(level_in_base.col(2).z(), 0.0, 1e-12);
+  EXPECT_NEAR(std::atan2(level_in_base.col(2).y(), level_in_base.col(2).x()), 0.4, 1e-12);
+  // The turn is the tilt: about 2.2° for 2° of pitch and 1° of roll.
+  EXPECT_NEAR(Eigen::AngleAxisd(camera_to_level).angle(), CameraMount::tiltOf(tilted), 0.01);
+  Eigen::Isometry3d down = Eigen::Isometry3d::Identity();  // optical z along base_link's −z
+  down.linear() << 0, -1, 0, -1, 0, 0, 0, 0, -1;
+  EXPECT_THROW(CameraMount::cameraToLevel(down), std::invalid_argument);
+}

@@ -3,11 +3,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "homography_teach_repeat/common/atomic_file.h"
@@ -244,4 +246,40 @@ TEST(Route, WritableDirectoryPassesTheCheckAndKeepsNoProbe) {
   EXPECT_EQ(existing.code(), StatusCode::kInvalidInput);
   EXPECT_NE(existing.message().find("refusing to overwrite"), std::string::npos) << existing.message();
   EXPECT_TRUE(checkRouteDirectoryWritable(dir, true).isOk());
+}
+
+// A route taught with a tilted mount keeps its levelling (the repeat levels its images the same
+// way); a level route's file has no such field, and a malformed one names the field.
+TEST(Route, KeepsTheLevellingOfATiltedMount) {
+  const std::string dir = temporaryDirectory();
+  RouteInfo tilted = info();
+  tilted.camera.camera_to_level =
+      (Eigen::AngleAxisd(-0.035, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.017, Eigen::Vector3d::UnitZ()))
+          .toRotationMatrix();
+  auto writer = RouteWriter::create(dir, tilted);
+  ASSERT_TRUE(writer.isOk()) << writer.status().toString();
+  ASSERT_TRUE(writer->addKeyframe(image(10), features(5), lines(), Pose2D(0, 0, 0), 100.0).isOk());
+  ASSERT_TRUE(writer->addKeyframe(image(20), features(6), lines(), Pose2D(1, 0, 0), 101.0).isOk());
+  const auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  EXPECT_LT((route->info.camera.camera_to_level - tilted.camera.camera_to_level).norm(), 1e-12);
+
+  const std::string level_dir = temporaryDirectory();
+  writeRoute(level_dir, 2);
+  const auto level = loadRoute(level_dir);
+  ASSERT_TRUE(level.isOk()) << level.status().toString();
+  EXPECT_TRUE(level->info.camera.camera_to_level.isIdentity(0.0));
+  std::ifstream level_index(level_dir + "/route.yaml");
+  const std::string level_text((std::istreambuf_iterator<char>(level_index)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(level_text.find("camera_to_level"), std::string::npos);
+
+  std::ifstream in(dir + "/route.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto at = text.find("camera_to_level: [");
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, std::string("camera_to_level: [").size(), "camera_to_level: [2, 0, 0, 0, 2, 0, 0, 0, 2, ");
+  std::ofstream(dir + "/route.yaml") << text;
+  const auto bad = loadRoute(dir);
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find("camera_to_level"), std::string::npos) << bad.status().message();
 }

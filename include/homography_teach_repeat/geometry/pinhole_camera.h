@@ -12,6 +12,13 @@
 // Pixels follow the camera convention of docs/math.md §1.1 (u right, v down); K = [[fx, 0, cx],
 // [0, fy, cy], [0, 0, 1]]. Undistorted pixel coordinates use the same K (like image_proc's
 // rectified image for a monocular camera with P = K).
+//
+// Levelling (docs/math.md §1.1, "A camera that is not level"): a camera whose mount is pitched or
+// rolled carries the rotation `camera_to_level` of its optical frame into the level camera frame
+// (the frame with y along gravity's down and z the optical axis turned horizontal). Undistorted
+// pixels are then pixels of that level camera with the same K: every ray is turned before any
+// estimator sees it, as CameraInfo's rectification R turns a stereo camera's rays (OpenCV's
+// initUndistortRectifyMap with R). The planar-motion model of Fast-HD and μ holds for them.
 #pragma once
 
 #include <Eigen/Core>
@@ -39,13 +46,17 @@ struct CameraCalibration {
   double cy = 0.0;
   std::string distortion_model = "none";
   std::vector<double> distortion;
+  // Rotation of the optical frame into the level camera frame (see above); identity for a level
+  // camera. Set from the camera's tf by CameraMount::cameraToLevel.
+  Eigen::Matrix3d camera_to_level = Eigen::Matrix3d::Identity();
 };
 
 class PinholeCamera {
  public:
   // Throws std::invalid_argument with a message naming the bad value when: width/height <= 0,
   // fx/fy not finite or <= 0, cx/cy not finite, an unknown model, a coefficient count the model
-  // does not accept, or a non-finite coefficient.
+  // does not accept, a non-finite coefficient, or a camera_to_level that is not a rotation or
+  // turns the optical axis by more than 60° (no level camera sees what that camera sees).
   explicit PinholeCamera(const CameraCalibration& calibration);
 
   int width() const { return width_; }
@@ -57,21 +68,28 @@ class PinholeCamera {
   DistortionModel distortionModel() const { return model_; }
   const std::vector<double>& distortionCoefficients() const { return coefficients_; }
   bool hasDistortion() const;
+  // Whether measured pixels are already the pixels every estimator works with: no lens
+  // distortion and no levelling rotation.
+  bool isIdealPinhole() const { return !hasDistortion() && !isLevelled(); }
+  bool isLevelled() const { return levelled_; }
+  const Eigen::Matrix3d& cameraToLevel() const { return camera_to_level_; }
 
   Eigen::Matrix3d K() const;
   Eigen::Matrix3d Kinverse() const;
   CameraCalibration calibration() const;
 
-  // Distorted (measured) pixel -> pixel of the ideal pinhole camera with the same K.
+  // Distorted (measured) pixel -> pixel of the ideal (levelled) pinhole camera with the same K;
+  // NaN for a ray the levelling turns behind the level camera.
   cv::Point2d undistortPixel(const cv::Point2d& distorted) const;
   std::vector<cv::Point2d> undistortPixels(const std::vector<cv::Point2d>& distorted) const;
-  // Ideal pinhole pixel -> distorted pixel (the forward lens model).
+  // Ideal (levelled) pinhole pixel -> distorted pixel (the forward lens model).
   cv::Point2d distortPixel(const cv::Point2d& undistorted) const;
 
-  // Distorted pixel -> normalised, undistorted image coordinates (x/z, y/z).
+  // Distorted pixel -> normalised, undistorted, levelled image coordinates (x/z, y/z).
   Eigen::Vector2d pixelToNormalized(const cv::Point2d& distorted) const;
-  // Point in the optical frame (z > 0) -> distorted pixel.
-  cv::Point2d project(const Eigen::Vector3d& point_optical) const;
+  // Point in the level camera frame (the optical frame for a level camera; in front of the
+  // camera) -> distorted pixel.
+  cv::Point2d project(const Eigen::Vector3d& point_level) const;
   bool isInside(const cv::Point2d& pixel) const;
 
  private:
@@ -83,6 +101,8 @@ class PinholeCamera {
   double fx_, fy_, cx_, cy_;
   DistortionModel model_;
   std::vector<double> coefficients_;
+  Eigen::Matrix3d camera_to_level_;
+  bool levelled_;
 };
 
 }  // namespace homography_teach_repeat

@@ -90,6 +90,12 @@ class CameraMount {
   static double tiltOf(const Eigen::Isometry3d& base_T_optical);
   // The optical axis' elevation [rad] above base_link's horizontal plane (> 0: looking up).
   static double elevationOf(const Eigen::Isometry3d& base_T_optical);
+  // The rotation of the optical frame into the level camera frame (CameraCalibration::
+  // camera_to_level, docs/math.md §1.1): the level frame has y along base_link's −z and z along
+  // the optical axis turned into base_link's horizontal plane (the forward frame's yaw). Identity
+  // for a level camera. Throws std::invalid_argument for a non-finite or non-orthonormal extrinsic
+  // or an optical axis within 1° of the vertical (no forward direction).
+  static Eigen::Matrix3d cameraToLevel(const Eigen::Isometry3d& base_T_optical);
 
   const Pose2D& forwardFrame() const { return forward_frame_; }
 

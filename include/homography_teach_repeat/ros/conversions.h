@@ -46,10 +46,16 @@ geometry_msgs::Quaternion yawQuaternion(double yaw);
 // geometry_msgs transform -> Eigen isometry.
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform);
 
-// The camera mount from tf (base_frame -> camera_frame, waiting up to 0.5 s): kInvalidInput naming
-// the frames when there is no transform, or the measured tilt when the camera is not level within
-// max_tilt_rad (CameraMount::fromExtrinsic).
-Expected<CameraMount> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
+// The camera mount from tf (base_frame -> camera_frame, waiting up to 0.5 s): its planar forward
+// frame, the rotation that levels its images (CameraMount::cameraToLevel, to be set in the
+// camera's CameraCalibration::camera_to_level) and its tilt. kInvalidInput naming the frames when
+// there is no transform, or the measured tilt when it exceeds max_tilt_rad.
+struct MountFromTf {
+  CameraMount mount;
+  Eigen::Matrix3d camera_to_level;
+  double tilt_rad;
+};
+Expected<MountFromTf> lookupCameraMount(const tf2_ros::Buffer& tf_buffer, const std::string& base_frame,
                                         const std::string& camera_frame, double max_tilt_rad);
 
 HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_matches,

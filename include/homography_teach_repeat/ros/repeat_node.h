@@ -16,7 +16,9 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/Header.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <opencv2/core.hpp>
 
@@ -50,6 +52,9 @@ class RepeatNode {
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
   // Seconds (ROS time) since the last image, or since the start when none came yet; mutex_ held.
   double cameraSilence() const;
+  // Once, at the first image: the camera's tilt in tf against the levelling the route was taught
+  // with (docs/math.md §1.10). A difference is a warning (log + diagnostics), not an error.
+  void checkCameraMount(const std::string& camera_frame);
 
   ros::NodeHandle nh_, private_nh_;
   std::string map_frame_, odom_frame_;
@@ -66,6 +71,13 @@ class RepeatNode {
   // Arrival (ROS time: simulated under use_sim_time) of the last image, and of the node's start.
   ros::Time last_image_arrival_, start_time_;
   IntegrityReport last_integrity_;
+  std::string base_frame_;
+  Eigen::Matrix3d taught_camera_to_level_ = Eigen::Matrix3d::Identity();
+  double max_mount_change_ = 0.01;  // [rad]
+  bool mount_checked_ = false;
+  std::string mount_warning_;  // empty: the mount is as taught (or could not be checked)
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_{tf_buffer_};
 
   image_transport::ImageTransport image_transport_;
   image_transport::CameraSubscriber camera_subscriber_;

@@ -172,11 +172,7 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   } catch (const std::invalid_argument& e) {
     return invalid(std::string("camera mount: ") + e.what());
   }
-  // Level camera axes in base_link: x = −y_base, y = −z_base, z = x_base, turned by the mount yaw.
-  Eigen::Matrix3d level_in_base;
-  level_in_base << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  level_in_base = Eigen::AngleAxisd(sequence.camera_mount.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * level_in_base;
-  sequence.mount_camera_to_level = level_in_base.transpose() * base_T_optical.linear();
+  sequence.mount_camera_to_level = CameraMount::cameraToLevel(base_T_optical);
   const double tilt_deg = Eigen::AngleAxisd(sequence.mount_camera_to_level).angle() * 180.0 / M_PI;
   sequence.mount_source = "tf " + topics.base_frame + " -> " + camera_frame + " (tilt " + std::to_string(tilt_deg) + " deg)";
   sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + image_topic;
