@@ -118,6 +118,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
     estimate.pose = refined->pose;
     estimate.covariance = refined->covariance + model_covariance;
     estimate.tilt = refined->tilt;
+    estimate.height_offset = refined->height_offset;
     estimate.refined = true;
   }
   return estimate;

@@ -26,9 +26,9 @@ Status ScenePlane::validate() const {
 }
 
 Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const PlanarPose& pose,
-                                       const ScenePlane& plane) {
+                                       const ScenePlane& plane, double height_offset) {
   const Eigen::Matrix3d R21 = pose.rotation21();
-  const Eigen::Vector3d t21 = R21 * pose.centre();
+  const Eigen::Vector3d t21 = R21 * Eigen::Vector3d(pose.x, height_offset, pose.z);
   const Eigen::Matrix3d H =
       camera.K() * (R21 - t21 * plane.normal.transpose() / plane.distance) * camera.Kinverse();
   return H / H.norm();

@@ -115,9 +115,11 @@ class FastHdEstimator final : public PointEstimator {
     // The pose must explain the matches through the keyframe's plane. Any homography gives a
     // Fast-HD pose, so a view dominated by another wall (a corner) gives a wrong pose with a small
     // DLT residual; the plane-induced homography of that pose does not fit it.
-    // (With the tilt nuisance, the model includes the current camera's estimated tilt.)
+    // The model includes the refinement's nuisances: the current camera's tilt and its height
+    // offset (a camera 3 cm lower moves a wall 2 m away by f·0.03/2 ≈ 8 px, docs/math.md §1.10).
     const Eigen::Matrix3d H_model = context_.camera.K() * pose->tilt * context_.camera.Kinverse() *
-                                    planeInducedHomography(context_.camera, pose->pose, *reference.plane);
+                                    planeInducedHomography(context_.camera, pose->pose, *reference.plane,
+                                                           pose->height_offset);
     double sum = 0.0;
     for (const int i : pose->inliers) {
       const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);

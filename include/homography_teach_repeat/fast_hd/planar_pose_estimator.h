@@ -51,6 +51,7 @@ struct PlanarPoseEstimate {
   bool refined = false;
   Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // inlier DLT, unit Frobenius norm
   Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();  // the refinement's current-camera tilt
+  double height_offset = 0.0;  // the refinement's camera height offset Cy [m] (0 unless refined)
   std::vector<int> inliers;                          // indices into the input matches
   double rms_transfer_error_px = 0.0;
 };

@@ -24,8 +24,10 @@ struct ScenePlane {
 
 // The homography a plane induces between a reference camera and a camera at `pose`
 // (docs/math.md §1.2): H21 ∝ K (R21 − t21 n1ᵀ / d1) K⁻¹, t21 = R21 C. Unit Frobenius norm.
-// Used to synthesise exact data and by the plane-parameter estimation.
+// `height_offset`: the current camera's centre Cy [m] off the reference camera's height (a
+// passenger, a slope; the refinement's nuisance), C = (x, Cy, z). Used to synthesise exact data,
+// by the plane-parameter estimation and by the repeat's plane-residual check.
 Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const PlanarPose& pose,
-                                       const ScenePlane& plane);
+                                       const ScenePlane& plane, double height_offset = 0.0);
 
 }  // namespace homography_teach_repeat
