@@ -22,6 +22,12 @@ void RouteFollowerOptions::validate() const {
   if (!std::isfinite(pose_timeout) || !(pose_timeout > 0.0)) {
     throw std::invalid_argument("pose_timeout must be finite and > 0");
   }
+  if (!std::isfinite(odometry_timeout) || !(odometry_timeout > 0.0)) {
+    throw std::invalid_argument("odometry_timeout must be finite and > 0");
+  }
+  if (!std::isfinite(carried_pose_timeout) || !(carried_pose_timeout > 0.0)) {
+    throw std::invalid_argument("carried_pose_timeout must be finite and > 0");
+  }
   if (start_index < 0) throw std::invalid_argument("start_index must be >= 0");
   if (laps < 1) throw std::invalid_argument("laps must be >= 1");
   auto positive = [](double value, const char* name) {
@@ -55,6 +61,9 @@ void RouteFollowerOptions::validate() const {
     throw std::invalid_argument("lost_search_angle must be in [0, pi]");
   }
   positive(lost_search_velocity, "lost_search_velocity");
+  if (!std::isfinite(straight_leg_angle) || straight_leg_angle < 0.0 || straight_leg_angle > M_PI / 2) {
+    throw std::invalid_argument("straight_leg_angle must be in [0, pi/2]");
+  }
 }
 
 RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options)
@@ -157,10 +166,46 @@ Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_of
   invalid_ = false;
   lost_ = false;
   has_fix_ = true;
+  fix_ = pose;
   pose_ = pose;
   stamp_ = stamp;
   heading_offset_ = heading_offset;
   return Status::ok();
+}
+
+Status RouteFollower::addOdometry(const Pose2D& odometry, double stamp) {
+  if (!odometry.isFinite() || !std::isfinite(stamp)) {
+    return Status(StatusCode::kInvalidInput, "odometry is not finite: ignored");
+  }
+  if (!odometry_.empty() && !(stamp > odometry_.back().first)) {
+    return Status(StatusCode::kInvalidInput, "odometry stamp not after the last one: ignored");
+  }
+  odometry_.emplace_back(stamp, odometry);
+  while (odometry_.size() > 2 && odometry_.front().first < stamp - options_.carried_pose_timeout - 1.0) {
+    odometry_.pop_front();
+  }
+  return Status::ok();
+}
+
+std::optional<Pose2D> RouteFollower::odometryAt(double stamp) const {
+  if (odometry_.empty() || stamp < odometry_.front().first || stamp > odometry_.back().first) return std::nullopt;
+  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), stamp,
+                                      [](const std::pair<double, Pose2D>& o, double t) { return o.first < t; });
+  if (after->first == stamp || after == odometry_.begin()) return after->second;
+  const auto& [t0, p0] = *(after - 1);
+  const auto& [t1, p1] = *after;
+  const double a = (stamp - t0) / (t1 - t0);
+  return Pose2D(p0.x + a * (p1.x - p0.x), p0.y + a * (p1.y - p0.y), wrapToPi(p0.yaw + a * wrapToPi(p1.yaw - p0.yaw)));
+}
+
+Pose2D RouteFollower::currentPose(double now, double* limit) const {
+  *limit = options_.pose_timeout;
+  if (odometry_.empty() || !(now - odometry_.back().first <= options_.odometry_timeout)) return fix_;
+  const auto at_fix = odometryAt(stamp_);
+  if (!at_fix) return fix_;
+  *limit = std::max(options_.pose_timeout, options_.carried_pose_timeout);
+  // The fix composed with the odometry's motion since its image (both in the robot's own frame).
+  return fix_.compose(at_fix->inverse().compose(odometry_.back().second));
 }
 
 void RouteFollower::setLost(const std::string& reason, double stamp) {
@@ -191,9 +236,12 @@ FollowOutput RouteFollower::update(double now, double dt,
   if (invalid_) return stop(FollowState::kStopped, "non-finite localization");
   if (trust_ == PoseTrust::kLost) return searchInPlace(now, dt);
   if (lost_) return stop(FollowState::kStopped, "localization lost: " + lost_reason_);
-  if (!std::isfinite(now) || now - stamp_ > options_.pose_timeout) {
-    return stop(FollowState::kStopped, "localization older than pose_timeout (" +
-                                           std::to_string(now - stamp_) + " s)");
+  double age_limit = options_.pose_timeout;
+  pose_ = currentPose(now, &age_limit);
+  if (!std::isfinite(now) || now - stamp_ > age_limit) {
+    return stop(FollowState::kStopped, std::string("localization older than ") +
+                                           (age_limit > options_.pose_timeout ? "carried_pose_timeout" : "pose_timeout") +
+                                           " (" + std::to_string(now - stamp_) + " s)");
   }
   // Goals reached (distance < ε; and heading within δ when required, paper 002 Fig. 8) are passed;
   // the last one has its own test (finalApproach).
@@ -221,9 +269,31 @@ FollowOutput RouteFollower::update(double now, double dt,
     if (!command) return stop(FollowState::kStopped, command.status().message());
     return following(*command, distance);
   }
-  const auto command = controller_.step(distance, bearing, obstacles, dt);
+  const auto command = controller_.step(distance + straightRunAfter(next_), bearing, obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
   return following(*command, distance);
+}
+
+double RouteFollower::straightRunAfter(std::size_t position) const {
+  if (!(options_.straight_leg_angle > 0.0) || position == 0) return 0.0;
+  auto at = [&](std::size_t p) {
+    const Pose2D& g = goals_[static_cast<std::size_t>(sequence_[p])];
+    return Eigen::Vector2d(g.x, g.y);
+  };
+  Eigen::Vector2d direction = at(position) - at(position - 1);
+  if (direction.norm() < options_.corner_radius) return 0.0;
+  double run = 0.0;
+  // Far enough for the attraction's saturation: nothing beyond it changes the force.
+  const double enough = options_.controller.attraction_saturation;
+  for (std::size_t q = position; q + 1 < sequence_.size() && run < enough; ++q) {
+    const Eigen::Vector2d segment = at(q + 1) - at(q);
+    if (segment.norm() < options_.corner_radius) break;  // a turn in place
+    const double turn = std::atan2(direction.x() * segment.y() - direction.y() * segment.x(), direction.dot(segment));
+    if (std::abs(turn) > options_.straight_leg_angle) break;
+    run += segment.norm();
+    direction = segment;
+  }
+  return run;
 }
 
 double RouteFollower::toleranceOf(std::size_t position) const {

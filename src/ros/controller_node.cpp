@@ -35,6 +35,8 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     p.goal_tolerance = readParameter(nh, "goal_tolerance", p.goal_tolerance);
     p.goal_heading_tolerance = readParameter(nh, "goal_heading_tolerance", p.goal_heading_tolerance);
     o.pose_timeout = readParameter(nh, "pose_timeout", o.pose_timeout);
+    o.odometry_timeout = readParameter(nh, "odometry_timeout", o.odometry_timeout);
+    o.carried_pose_timeout = readParameter(nh, "carried_pose_timeout", o.carried_pose_timeout);
     o.start_index = readParameter(nh, "start_index", o.start_index);
     o.end_index = readParameter(nh, "end_index", o.end_index);
     o.laps = readParameter(nh, "laps", o.laps);
@@ -44,6 +46,7 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.corner_radius = readParameter(nh, "corner_radius", o.corner_radius);
     o.corner_tolerance = readParameter(nh, "corner_tolerance", o.corner_tolerance);
     o.turn_in_place_angle = readParameter(nh, "turn_in_place_angle", o.turn_in_place_angle);
+    o.straight_leg_angle = readParameter(nh, "straight_leg_angle", o.straight_leg_angle);
     o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
     o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);
     o.final_turn_angle = readParameter(nh, "final_turn_angle", o.final_turn_angle);
@@ -89,6 +92,14 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   const std::string pose_source = readParameter<std::string>(private_nh, "pose_source", "localization");
   if (pose_source == "localization") {
     pose_subscriber_ = nh_.subscribe("pose", 5, &ControllerNode::onPose, this);
+    odometry_subscriber_ = nh_.subscribe<nav_msgs::Odometry>("odom", 50, [this](const nav_msgs::OdometryConstPtr& odom) {
+      const auto pose = ros_conversions::toPose2D(odom->pose.pose);
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!follower_) return;
+      // A bad odometry message is not used to carry the pose (the fix alone, with pose_timeout).
+      const Status added = pose ? follower_->addOdometry(*pose, odom->header.stamp.toSec()) : pose.status();
+      if (!added.isOk()) ROS_WARN_THROTTLE(5.0, "controller_node: odometry: %s", added.message().c_str());
+    });
   } else if (pose_source == "odometry") {
     // The baseline without vision: the raw odometry as the route pose (its frame must be the
     // route frame, i.e. the run starts where the teach run started).

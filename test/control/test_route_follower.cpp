@@ -327,3 +327,94 @@ TEST(RouteFollower, RetuneChangesTheTunablesOnly) {
   EXPECT_THROW(follower.retune(bad), std::invalid_argument);
   EXPECT_EQ(follower.options().pose_timeout, 2.0);
 }
+
+// The fix is of the instant its image was taken: with fresh odometry it is carried to now on the
+// odometry's increment (any odom frame), and stops the robot only after carried_pose_timeout;
+// without fresh odometry the fix alone counts, with pose_timeout.
+TEST(RouteFollower, CarriesTheFixForwardOnOdometry) {
+  RouteFollowerOptions options;
+  options.pose_timeout = 0.5;
+  options.carried_pose_timeout = 1.5;
+  options.odometry_timeout = 0.2;
+  RouteFollower follower(squareRoute(), options);
+  // The odom frame is turned and shifted against the route frame: only increments matter.
+  auto odometry = [](double t) { return Pose2D(2.0, 1.0 + 0.5 * (t - 9.9), M_PI / 2); };
+  for (double t = 9.9; t < 10.31; t += 0.05) ASSERT_TRUE(follower.addOdometry(odometry(t), t).isOk());
+  ASSERT_TRUE(follower.setFix(Pose2D(0.5, 0.0, 0.0), 10.0).isOk());
+  auto out = follower.update(10.3, 0.05);
+  EXPECT_EQ(out.state, FollowState::kFollowing);
+  EXPECT_NEAR(out.distance_to_goal, 4.0 - (0.5 + 0.5 * 0.3), 1e-9);  // goal (4, 0), moved 0.15 m
+  // Older than pose_timeout, carried: still following, from where the odometry says it is.
+  for (double t = 10.35; t < 11.21; t += 0.05) ASSERT_TRUE(follower.addOdometry(odometry(t), t).isOk());
+  out = follower.update(11.2, 0.05);
+  EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
+  EXPECT_NEAR(out.distance_to_goal, 4.0 - (0.5 + 0.5 * 1.2), 1e-6);
+  // Older than carried_pose_timeout: stopped.
+  for (double t = 11.25; t < 11.61; t += 0.05) ASSERT_TRUE(follower.addOdometry(odometry(t), t).isOk());
+  out = follower.update(11.6, 0.05);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_EQ(out.command.linear, 0.0);
+  EXPECT_NE(out.reason.find("carried_pose_timeout"), std::string::npos) << out.reason;
+  // A new fix while the odometry has gone silent: the fix alone, and pose_timeout.
+  ASSERT_TRUE(follower.setFix(Pose2D(1.0, 0.0, 0.0), 11.9).isOk());
+  out = follower.update(12.0, 0.05);
+  EXPECT_EQ(out.state, FollowState::kFollowing);
+  EXPECT_NEAR(out.distance_to_goal, 3.0, 1e-9);
+  out = follower.update(12.5, 0.05);
+  EXPECT_EQ(out.state, FollowState::kStopped);
+  EXPECT_NE(out.reason.find("than pose_timeout"), std::string::npos) << out.reason;
+  // Bad odometry is refused and changes nothing.
+  EXPECT_EQ(follower.addOdometry(Pose2D(std::nan(""), 0.0, 0.0), 12.6).code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(follower.addOdometry(odometry(11.0), 11.0).code(), StatusCode::kInvalidInput);  // stamp goes back
+}
+
+TEST(RouteFollower, RefusesOdometryTimeoutsOutOfRange) {
+  RouteFollowerOptions options;
+  options.carried_pose_timeout = -1.0;
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.odometry_timeout = std::nan("");
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+  options.odometry_timeout = 0.0;
+  EXPECT_THROW(RouteFollower(squareRoute(), options), std::invalid_argument);
+}
+
+// Keyframes 0.5 m apart on a straight leg with ε 0.4 m: the attraction towards the next keyframe
+// alone settles at v = F/2b = d/2 (0.2-0.45 m/s, 0.32 on average); with the straight leg beyond the goal it reaches
+// the speed limit, and it still slows down before the corner.
+TEST(RouteFollower, KeepsItsSpeedAlongAStraightLeg) {
+  std::vector<Pose2D> goals;
+  for (int k = 0; k <= 12; ++k) goals.emplace_back(0.5 * k, 0.0, 0.0);  // 6 m straight
+  goals.emplace_back(6.0, 0.0, M_PI / 2);                             // a turn in place
+  goals.emplace_back(6.0, 0.5, M_PI / 2);
+  auto averageSpeed = [&](double straight_leg_angle, double* speed_before_corner) {
+    RouteFollowerOptions options;
+    options.controller.goal_tolerance = 0.4;
+    options.controller.max_linear_velocity = 0.5;
+    options.straight_leg_angle = straight_leg_angle;
+    RouteFollower follower(goals, options);
+    Pose2D pose(0.0, 0.0, 0.0);
+    double sum = 0.0;
+    int samples = 0;
+    const double dt = 0.05;
+    for (double t = 0.0; t < 30.0 && pose.x < 5.5; t += dt) {
+      EXPECT_TRUE(follower.setFix(pose, t).isOk());
+      const FollowOutput out = follower.update(t, dt);
+      EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
+      if (pose.x > 1.0 && pose.x < 4.5) {
+        sum += out.command.linear;
+        ++samples;
+      }
+      if (pose.x > 5.3) *speed_before_corner = out.command.linear;
+      pose = integrate(pose, out.command, dt);
+    }
+    return sum / std::max(1, samples);
+  };
+  double before_corner_paper = 0.0, before_corner = 0.0;
+  const double paper = averageSpeed(0.0, &before_corner_paper);
+  const double straight = averageSpeed(0.35, &before_corner);
+  EXPECT_LT(paper, 0.35);
+  EXPECT_GT(straight, 0.45);
+  EXPECT_LT(before_corner, 0.45);  // slowing down for the turn in place at x = 6
+  std::printf("straight leg: %.2f m/s with the leg beyond the goal, %.2f m/s towards the goal alone\n", straight, paper);
+}

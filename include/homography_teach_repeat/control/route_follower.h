@@ -1,12 +1,15 @@
 // Following a taught route with the potential-field controller (paper 002 §5): the goals are the
 // keyframe positions in order (optionally several laps); the robot pose comes from the repeat
-// phase's localization, and every condition that makes it untrustworthy stops the robot:
-// no fix yet, a fix older than `pose_timeout`, lost tracking, a non-finite input. At the end of
-// the route the command is zero and the follower reports finished.
+// phase's localization, carried forward from the instant of its image to now on the wheel
+// odometry (addOdometry; an image is 50-150 ms old when its pose arrives, docs/controller.md), and
+// every condition that makes it untrustworthy stops the robot: no fix yet, a fix older than
+// `pose_timeout` (`carried_pose_timeout` while odometry carries it), lost tracking, a non-finite
+// input. At the end of the route the command is zero and the follower reports finished.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <deque>
 #include <limits>
 
 #include <optional>
@@ -27,7 +30,13 @@ std::string toString(FollowState state);
 
 struct RouteFollowerOptions {
   PotentialFieldParameters controller;
-  double pose_timeout = 0.5;  // [s] a fix older than this stops the robot
+  double pose_timeout = 0.5;  // [s] a fix older than this stops the robot (no odometry to carry it)
+  // With odometry (addOdometry) no older than odometry_timeout [s], the fix is carried from its
+  // stamp to now on the odometry's increment and stops the robot only when older than
+  // carried_pose_timeout [s, > 0; pose_timeout when smaller]: a late pose is still a pose of where
+  // the robot is.
+  double odometry_timeout = 0.2;
+  double carried_pose_timeout = 1.0;
   int start_index = 0;        // first goal keyframe
   int end_index = -1;         // last goal keyframe (-1: the last one)
   int laps = 1;               // closed routes: goals start_index..end_index repeated
@@ -52,6 +61,13 @@ struct RouteFollowerOptions {
   double corner_radius = 0.05;
   double corner_tolerance = 0.15;
   double turn_in_place_angle = 0.5;
+  // Straight legs. The attraction of eq. (3) grows with the distance to the goal, and keyframes
+  // are close (0.5 m with ε 0.4 m in the demo: the robot averaged half its speed limit on straights).
+  // The distance the attraction sees is the goal's plus the route's length beyond it while the
+  // route stays within straight_leg_angle [rad] of straight (no turn in place): the robot keeps
+  // its speed along a straight leg and slows down where the route turns or ends. 0: the goal's
+  // distance alone (paper 002).
+  double straight_leg_angle = 0.35;
   // The end of the run. Paper 002's robot stops once within ε of the last keyframe; here the last
   // goal is approached within final_approach_distance [m] with a go-to-point law (turn in place
   // while the goal's bearing exceeds final_turn_angle [rad]; otherwise v = final_approach_gain ·
@@ -98,6 +114,9 @@ class RouteFollower {
   // the visual heading correction the force direction gets (0 when the pose already includes it).
   // kInvalidInput for non-finite values (the robot then stops at the next update).
   Status setFix(const Pose2D& pose, double stamp, double heading_offset = 0.0);
+  // The wheel odometry (any fixed odom frame) at `stamp` [s], in increasing stamps: carries the fix
+  // forward. kInvalidInput for non-finite values or a stamp not after the last (ignored).
+  Status addOdometry(const Pose2D& odometry, double stamp);
   // Localization reported failure (lost tracking) for the frame at `stamp` [s]: stop until the next
   // good fix. Ignored when a fix at least as new has arrived already (repeat_node's mu mode still
   // publishes a pose for a frame without a heading fix, and the two topics may arrive in any order).
@@ -130,6 +149,12 @@ class RouteFollower {
   // The controller's limits for the current trust (DEGRADED: scaled).
   void applyTrustToLimits();
   double toleranceOf(std::size_t position) const;
+  // The route's length beyond the goal at `position` while it runs straight on (straight_leg_angle).
+  double straightRunAfter(std::size_t position) const;
+  // The odometry at `stamp`, interpolated between its neighbours (none outside the buffer).
+  std::optional<Pose2D> odometryAt(double stamp) const;
+  // The fix carried to `now` on the odometry, or the fix itself; `limit`: the age allowed.
+  Pose2D currentPose(double now, double* limit) const;
 
   std::vector<Pose2D> goals_;
   RouteFollowerOptions options_;
@@ -142,8 +167,10 @@ class RouteFollower {
   bool lost_ = false;
   bool invalid_ = false;
   std::string lost_reason_;
-  Pose2D pose_;
+  Pose2D fix_;     // the last fix, at stamp_
+  Pose2D pose_;    // the pose this update works with (the fix carried to now)
   double stamp_ = 0.0;
+  std::deque<std::pair<double, Pose2D>> odometry_;  // (stamp, pose), the last carried_pose_timeout + 1 s
   double heading_offset_ = 0.0;
   PoseTrust trust_ = PoseTrust::kOk;
   std::string trust_reason_;

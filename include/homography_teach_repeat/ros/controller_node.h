@@ -87,6 +87,7 @@ class ControllerNode {
   ros::Time obstacles_stamp_;
 
   ros::Subscriber pose_subscriber_;
+  ros::Subscriber odometry_subscriber_;  // carries the pose from its image to now (RouteFollower::addOdometry)
   ros::Subscriber heading_subscriber_, integrity_subscriber_;
   ros::Subscriber scan_subscriber_;
   ros::Publisher command_publisher_;
