@@ -212,7 +212,7 @@ cv::Point2d PinholeCamera::distortPixel(const cv::Point2d& undistorted) const {
 }
 
 Eigen::Vector2d PinholeCamera::pixelToNormalized(const cv::Point2d& distorted) const {
-  const Eigen::Vector2d n = undistortNormalized(Eigen::Vector2d((distorted.x - cx_) / fx_, (distorted.y - cy_) / fy_));
+  Eigen::Vector2d n = undistortNormalized(Eigen::Vector2d((distorted.x - cx_) / fx_, (distorted.y - cy_) / fy_));
   if (!levelled_) return n;
   const Eigen::Vector3d ray = camera_to_level_ * n.homogeneous();
   if (!(ray.z() > 0.0)) return Eigen::Vector2d(kNaN, kNaN);

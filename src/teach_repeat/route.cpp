@@ -294,7 +294,7 @@ Expected<Route> loadRoute(const std::string& directory) {
     if (camera["camera_to_level"]) {
       const auto rows = reader.get<std::vector<double>>(camera, "camera_to_level");
       if (rows.size() != 9) throw reader.error(camera["camera_to_level"], "field 'camera_to_level' needs 9 numbers (row-major)");
-      for (int r = 0; r < 3; ++r) for (int k = 0; k < 3; ++k) c.camera_to_level(r, k) = rows[static_cast<std::size_t>(3 * r + k)];
+      for (std::size_t i = 0; i < 9; ++i) c.camera_to_level(static_cast<int>(i / 3), static_cast<int>(i % 3)) = rows[i];
     }
     try {
       PinholeCamera check(c);
