@@ -90,6 +90,26 @@ bool PlanarWorld::cameraCoveredAt(const Eigen::Vector2d& position) const {
   return false;
 }
 
+Expected<PlanarWorld> PlanarWorld::withAppearance(int variant) const {
+  if (variant < 0) {
+    return Status(StatusCode::kInvalidInput, "world '" + source + "': appearance variant " + std::to_string(variant) +
+                                                 " (must be >= 0; 0 is the world as taught)");
+  }
+  PlanarWorld changed = *this;
+  bool any = variant == 0;
+  for (Wall& wall : changed.walls) {
+    if (variant == 0 || static_cast<std::size_t>(variant) > wall.variants.size()) continue;
+    wall.texture = wall.variants[static_cast<std::size_t>(variant - 1)];
+    wall.texture_path = wall.variant_paths[static_cast<std::size_t>(variant - 1)];
+    any = true;
+  }
+  if (!any) {
+    return Status(StatusCode::kInvalidInput, "world '" + source + "': no wall has appearance variant " +
+                                                 std::to_string(variant) + " (its walls' 'variants' lists are shorter)");
+  }
+  return changed;
+}
+
 Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
   PlanarWorld world;
   world.source = path;
@@ -147,6 +167,19 @@ Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
       wall.texture = cv::imread(wall.texture_path, cv::IMREAD_COLOR);
       if (wall.texture.empty()) {
         throw FieldError("'" + field + ".texture': cannot read image '" + wall.texture_path + "'");
+      }
+      if (const YAML::Node variants = node["variants"]) {
+        if (!variants.IsSequence()) throw FieldError("'" + field + ".variants' must be a list of image files");
+        for (std::size_t k = 0; k < variants.size(); ++k) {
+          const std::string variant_field = field + ".variants[" + std::to_string(k) + "]";
+          if (!variants[k].IsScalar()) throw FieldError("'" + variant_field + "' must be an image file");
+          std::filesystem::path variant = variants[k].as<std::string>();
+          if (variant.is_relative()) variant = folder / variant;
+          cv::Mat image = cv::imread(variant.string(), cv::IMREAD_COLOR);
+          if (image.empty()) throw FieldError("'" + variant_field + "': cannot read image '" + variant.string() + "'");
+          wall.variant_paths.push_back(variant.string());
+          wall.variants.push_back(std::move(image));
+        }
       }
       world.walls.push_back(std::move(wall));
     }

@@ -391,6 +391,50 @@ TEST(PlanarWorld, CameraCoveredRegions) {
   std::filesystem::remove_all(dir);
 }
 
+// Appearance change between runs: a wall's texture variants, chosen per run; variant 0 is the
+// world as taught, a wall without the variant keeps its texture, and a variant no wall has, a
+// negative one or an unreadable variant image are refused naming them.
+TEST(PlanarWorld, AppearanceVariantsReplaceTheirWallsTextures) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "htr_world_variant_test";
+  std::filesystem::create_directories(dir);
+  cv::imwrite((dir / "t.png").string(), colourTexture(3));
+  cv::imwrite((dir / "poster.png").string(), colourTexture(4));
+  auto write = [&](const std::string& variants) {
+    std::ofstream((dir / "w.yaml").string())
+        << "format_version: 1\nwalls:\n"
+        << "  - {name: a, start: [0, 0], end: [2, 0], height: 2, texture: t.png, texture_size: [1, 1]" << variants << "}\n"
+        << "  - {name: b, start: [2, 0], end: [2, 2], height: 2, texture: t.png, texture_size: [1, 1]}\n";
+    return loadPlanarWorld((dir / "w.yaml").string());
+  };
+  const auto world = write(", variants: [poster.png]");
+  ASSERT_TRUE(world.isOk()) << world.status().toString();
+  ASSERT_EQ(world->walls[0].variants.size(), 1u);
+  const auto taught = world->withAppearance(0);
+  ASSERT_TRUE(taught.isOk());
+  EXPECT_EQ(cv::norm(taught->walls[0].texture, world->walls[0].texture, cv::NORM_INF), 0.0);
+  const auto changed = world->withAppearance(1);
+  ASSERT_TRUE(changed.isOk()) << changed.status().toString();
+  EXPECT_GT(cv::norm(changed->walls[0].texture, world->walls[0].texture, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(changed->walls[0].texture, world->walls[0].variants[0], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(changed->walls[1].texture, world->walls[1].texture, cv::NORM_INF), 0.0);  // no variant
+  // The renderer sees the change.
+  const WorldRenderer renderer(simCamera(), RenderOptions());
+  cv::RNG rng(1);
+  const Pose2D facing_a(1.0, 1.5, -M_PI / 2);
+  const cv::Mat before = renderer.render(*world, facing_a, 1.0, rng);
+  const cv::Mat after = renderer.render(*changed, facing_a, 1.0, rng);
+  EXPECT_GT(cv::norm(before, after, cv::NORM_L1) / static_cast<double>(before.total()), 10.0);
+  auto expectRefused = [](const Expected<PlanarWorld>& w, const std::string& needle) {
+    ASSERT_FALSE(w.isOk());
+    EXPECT_NE(w.status().message().find(needle), std::string::npos) << w.status().message();
+  };
+  expectRefused(world->withAppearance(2), "no wall has appearance variant 2");
+  expectRefused(world->withAppearance(-1), "appearance variant -1");
+  expectRefused(write(", variants: [missing.png]"), "walls[0].variants[0]");
+  expectRefused(write(", variants: poster.png"), "walls[0].variants' must be a list");
+  std::filesystem::remove_all(dir);
+}
+
 TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
   // A full circle returns to the start.
   Pose2D pose(1.0, 2.0, 0.3);

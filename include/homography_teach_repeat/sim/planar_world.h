@@ -18,6 +18,11 @@
 //       height: 2.5                  # [m] > 0
 //       texture: graf1.png           # relative to the world file's folder, or absolute
 //       texture_size: [w, h]         # [m] > 0: metric size of one copy of the texture
+//       variants: [poster.png, ...]  # optional: the wall's appearance in other runs (a poster
+//                                    # replaced, a wall repainted), same texture_size; a run
+//                                    # chooses variant k (PlanarWorld::withAppearance, sim
+//                                    # parameter appearance_variant): the k-th of this list, and
+//                                    # the texture itself on walls with fewer variants
 #pragma once
 
 #include <Eigen/Core>
@@ -41,6 +46,8 @@ struct Wall {
   std::string texture_path;
   double texture_width = 1.0;   // [m] of one texture copy along the wall
   double texture_height = 1.0;  // [m] of one texture copy up the wall
+  std::vector<cv::Mat> variants;  // BGR8: the wall's other appearances (`variants` of the file)
+  std::vector<std::string> variant_paths;
 
   double length() const { return (end - start).norm(); }
 };
@@ -75,6 +82,9 @@ struct PlanarWorld {
   Status validate() const;
   // Whether the camera of a robot whose base_link is at `position` is covered.
   bool cameraCoveredAt(const Eigen::Vector2d& position) const;
+  // The world with appearance `variant` (0: as taught; k > 0: every wall with at least k variants
+  // shows its k-th). kInvalidInput for a negative variant or one that no wall has.
+  Expected<PlanarWorld> withAppearance(int variant) const;
 };
 
 // Loads and validates a world file. Status kInvalidInput naming the file and the field (a missing

@@ -71,7 +71,13 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   const std::string world_file = readRequiredParameter<std::string>(p, "world_file");
   auto world = loadPlanarWorld(world_file);
   if (!world) throw std::runtime_error(world.status().message());
-  world_ = std::move(*world);
+  // Appearance change between runs: the walls' texture variants (planar_world.h).
+  const int variant = readParameter(p, "appearance_variant", 0);
+  auto appearance = world->withAppearance(variant);
+  if (!appearance) {
+    throw std::runtime_error("parameter '" + p.resolveName("appearance_variant") + "': " + appearance.status().message());
+  }
+  world_ = std::move(*appearance);
 
   physics_rate_ = readParameter(p, "physics_rate", physics_rate_);
   camera_rate_ = readParameter(p, "camera_rate", camera_rate_);
