@@ -69,6 +69,9 @@ void RouteFollowerOptions::validate() const {
 RouteFollower::RouteFollower(std::vector<Pose2D> goals, const RouteFollowerOptions& options)
     : goals_(std::move(goals)), options_(options), controller_(options.controller) {
   options_.validate();
+  // Enough odometry for a fix as old as it may be, interpolated across any gap within it.
+  const double odometry_kept = options_.carried_pose_timeout + 1.0;
+  odometry_ = OdometryBuffer(odometry_kept, odometry_kept);
   if (goals_.empty()) throw std::invalid_argument("the route has no keyframe to follow");
   const int last = options_.end_index < 0 ? static_cast<int>(goals_.size()) - 1 : options_.end_index;
   if (options_.start_index >= static_cast<int>(goals_.size()) ||
@@ -174,38 +177,18 @@ Status RouteFollower::setFix(const Pose2D& pose, double stamp, double heading_of
 }
 
 Status RouteFollower::addOdometry(const Pose2D& odometry, double stamp) {
-  if (!odometry.isFinite() || !std::isfinite(stamp)) {
-    return Status(StatusCode::kInvalidInput, "odometry is not finite: ignored");
-  }
-  if (!odometry_.empty() && !(stamp > odometry_.back().first)) {
-    return Status(StatusCode::kInvalidInput, "odometry stamp not after the last one: ignored");
-  }
-  odometry_.emplace_back(stamp, odometry);
-  while (odometry_.size() > 2 && odometry_.front().first < stamp - options_.carried_pose_timeout - 1.0) {
-    odometry_.pop_front();
-  }
-  return Status::ok();
-}
-
-std::optional<Pose2D> RouteFollower::odometryAt(double stamp) const {
-  if (odometry_.empty() || stamp < odometry_.front().first || stamp > odometry_.back().first) return std::nullopt;
-  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), stamp,
-                                      [](const std::pair<double, Pose2D>& o, double t) { return o.first < t; });
-  if (after->first == stamp || after == odometry_.begin()) return after->second;
-  const auto& [t0, p0] = *(after - 1);
-  const auto& [t1, p1] = *after;
-  const double a = (stamp - t0) / (t1 - t0);
-  return Pose2D(p0.x + a * (p1.x - p0.x), p0.y + a * (p1.y - p0.y), wrapToPi(p0.yaw + a * wrapToPi(p1.yaw - p0.yaw)));
+  return odometry_.add(stamp, odometry);
 }
 
 Pose2D RouteFollower::currentPose(double now, double* limit) const {
   *limit = options_.pose_timeout;
-  if (odometry_.empty() || !(now - odometry_.back().first <= options_.odometry_timeout)) return fix_;
-  const auto at_fix = odometryAt(stamp_);
-  if (!at_fix) return fix_;
+  if (odometry_.empty() || !(now - odometry_.newestStamp() <= options_.odometry_timeout)) return fix_;
+  const auto at_fix = odometry_.poseAt(stamp_);
+  const auto newest = odometry_.poseAt(odometry_.newestStamp());
+  if (!at_fix || !newest) return fix_;
   *limit = std::max(options_.pose_timeout, options_.carried_pose_timeout);
   // The fix composed with the odometry's motion since its image (both in the robot's own frame).
-  return fix_.compose(at_fix->inverse().compose(odometry_.back().second));
+  return fix_.compose(at_fix->inverse().compose(*newest));
 }
 
 void RouteFollower::setLost(const std::string& reason, double stamp) {

@@ -13,7 +13,7 @@
 #include <stdexcept>
 
 #include "homography_teach_repeat/eval/pose_consistency.h"
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 
 namespace homography_teach_repeat {
 namespace eval {

@@ -99,6 +99,15 @@ CameraMount::CameraMount(double x, double y, double yaw) : forward_frame_(x, y, 
   }
 }
 
+namespace {
+// A finite extrinsic with an orthonormal rotation.
+bool isRigid(const Eigen::Isometry3d& base_T_optical) {
+  const Eigen::Matrix3d rotation = base_T_optical.linear();
+  return base_T_optical.matrix().allFinite() &&
+         (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() <= 1e-6;
+}
+}  // namespace
+
 CameraMount CameraMount::fromExtrinsic(const Eigen::Isometry3d& base_T_optical,
                                        double max_tilt_rad) {
   if (!base_T_optical.matrix().allFinite()) {
@@ -124,12 +133,8 @@ CameraMount CameraMount::fromExtrinsic(const Eigen::Isometry3d& base_T_optical,
 }
 
 double CameraMount::tiltOf(const Eigen::Isometry3d& base_T_optical) {
-  const Eigen::Matrix3d rotation = base_T_optical.linear();
-  if (!base_T_optical.matrix().allFinite() ||
-      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
-    return std::numeric_limits<double>::quiet_NaN();
-  }
-  return std::acos(std::clamp(-rotation.col(1).z(), -1.0, 1.0));
+  if (!isRigid(base_T_optical)) return std::numeric_limits<double>::quiet_NaN();
+  return std::acos(std::clamp(-base_T_optical.linear().col(1).z(), -1.0, 1.0));
 }
 
 double CameraMount::elevationOf(const Eigen::Isometry3d& base_T_optical) {
@@ -139,8 +144,7 @@ double CameraMount::elevationOf(const Eigen::Isometry3d& base_T_optical) {
 
 Eigen::Matrix3d CameraMount::cameraToLevel(const Eigen::Isometry3d& base_T_optical) {
   const Eigen::Matrix3d rotation = base_T_optical.linear();
-  if (!base_T_optical.matrix().allFinite() ||
-      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
+  if (!isRigid(base_T_optical)) {
     throw std::invalid_argument("CameraMount: the camera extrinsic is not a finite rigid transform");
   }
   const Eigen::Vector3d optical_z = rotation.col(2);

@@ -241,16 +241,26 @@ TEST(WorldRenderer, LampsModulateTheBrightnessAlongTheWall) {
 }
 
 // Turning during the exposure smears the image along its rows, not along its columns.
-TEST(WorldRenderer, MotionBlurFollowsTheRotation) {
-  PlanarWorld world;  // fine random texture: about a texel per pixel at 4 m
+namespace {
+// One 6 x 3 m wall 4 m ahead of the origin with a uniform random texture of 600 x 300 texels,
+// smoothed by a Gaussian of `smoothing` texels (0: none).
+PlanarWorld randomTextureWall(int seed, double smoothing) {
+  PlanarWorld world;
   world.source = "test";
   cv::Mat texture(300, 600, CV_8UC3);
-  cv::RNG texture_rng(3);
+  cv::RNG texture_rng(static_cast<uint64_t>(seed));
   texture_rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
+  if (smoothing > 0.0) cv::GaussianBlur(texture, texture, cv::Size(), smoothing);
   Wall wall = makeWall({4.0, 3.0}, {4.0, -3.0}, texture, 3.0);
   wall.texture_width = 6.0;
   wall.texture_height = 3.0;
   world.walls.push_back(wall);
+  return world;
+}
+}  // namespace
+
+TEST(WorldRenderer, MotionBlurFollowsTheRotation) {
+  const PlanarWorld world = randomTextureWall(3, 0.0);  // about a texel per pixel at 4 m
   RenderOptions options;
   options.exposure_time = 0.02;
   const WorldRenderer renderer(simCamera(), options);
@@ -274,16 +284,7 @@ TEST(WorldRenderer, MotionBlurFollowsTheRotation) {
 // (an even box kernel anchored off centre moved it by half a pixel, a bias in every heading fix
 // taken while turning).
 TEST(WorldRenderer, MotionBlurDoesNotShiftTheImage) {
-  PlanarWorld world;
-  world.source = "test";
-  cv::Mat texture(300, 600, CV_8UC3);
-  cv::RNG texture_rng(5);
-  texture_rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
-  cv::GaussianBlur(texture, texture, cv::Size(), 2.0);
-  Wall wall = makeWall({4.0, 3.0}, {4.0, -3.0}, texture, 3.0);
-  wall.texture_width = 6.0;
-  wall.texture_height = 3.0;
-  world.walls.push_back(wall);
+  const PlanarWorld world = randomTextureWall(5, 2.0);
   RenderOptions options;
   options.exposure_time = 0.008;
   const WorldRenderer renderer(simCamera(), options);

@@ -9,13 +9,13 @@
 
 #include <Eigen/Core>
 
-#include <deque>
 #include <limits>
 
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/control/potential_field_controller.h"
 #include "homography_teach_repeat/common/status.h"
@@ -151,8 +151,6 @@ class RouteFollower {
   double toleranceOf(std::size_t position) const;
   // The route's length beyond the goal at `position` while it runs straight on (straight_leg_angle).
   double straightRunAfter(std::size_t position) const;
-  // The odometry at `stamp`, interpolated between its neighbours (none outside the buffer).
-  std::optional<Pose2D> odometryAt(double stamp) const;
   // The fix carried to `now` on the odometry, or the fix itself; `limit`: the age allowed.
   Pose2D currentPose(double now, double* limit) const;
 
@@ -170,7 +168,7 @@ class RouteFollower {
   Pose2D fix_;     // the last fix, at stamp_
   Pose2D pose_;    // the pose this update works with (the fix carried to now)
   double stamp_ = 0.0;
-  std::deque<std::pair<double, Pose2D>> odometry_;  // (stamp, pose), the last carried_pose_timeout + 1 s
+  OdometryBuffer odometry_;  // the last carried_pose_timeout + 1 s, interpolated at the fix's stamp
   double heading_offset_ = 0.0;
   PoseTrust trust_ = PoseTrust::kOk;
   std::string trust_reason_;

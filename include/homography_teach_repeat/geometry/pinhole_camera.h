@@ -72,7 +72,6 @@ class PinholeCamera {
   // distortion and no levelling rotation.
   bool isIdealPinhole() const { return !hasDistortion() && !isLevelled(); }
   bool isLevelled() const { return levelled_; }
-  const Eigen::Matrix3d& cameraToLevel() const { return camera_to_level_; }
 
   Eigen::Matrix3d K() const;
   Eigen::Matrix3d Kinverse() const;

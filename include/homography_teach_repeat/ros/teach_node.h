@@ -30,7 +30,7 @@
 #include <string>
 
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"

@@ -29,7 +29,7 @@
 #include <optional>
 #include <string>
 
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/trifocal/trifocal_localizer.h"
 

@@ -33,7 +33,7 @@
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/mu/heading_aided_odometry.h"
 #include "homography_teach_repeat/teach_repeat/integrity_monitor.h"
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/teach_repeat/odometry_gate.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/teach_repeat/route.h"

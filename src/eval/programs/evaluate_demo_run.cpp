@@ -49,7 +49,7 @@
 #include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/ros/conversions.h"
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/eval/path_deviation.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/eval/pose_consistency.h"

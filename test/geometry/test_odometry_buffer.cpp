@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 
 using namespace homography_teach_repeat;
 

@@ -1,4 +1,4 @@
-#include "homography_teach_repeat/teach_repeat/odometry_buffer.h"
+#include "homography_teach_repeat/geometry/odometry_buffer.h"
 
 #include <algorithm>
 #include <cmath>
