@@ -106,6 +106,11 @@ Expected<VelocityCommand> PotentialFieldController::track(double linear, double 
   return limit(linear, angular, dt);
 }
 
+VelocityCommand PotentialFieldController::capLinearVelocity(double max_linear) {
+  state_.linear = std::min(state_.linear, std::max(0.0, max_linear));
+  return state_;
+}
+
 VelocityCommand PotentialFieldController::limit(double linear, double angular, double dt) {
   const PotentialFieldParameters& p = parameters_;
   // Limits of the base: acceleration, then velocity.

@@ -54,6 +54,13 @@ void RouteFollowerOptions::validate() const {
   if (!(degraded_speed_factor > 0.0 && degraded_speed_factor <= 1.0)) {
     throw std::invalid_argument("degraded_speed_factor must be in (0, 1]");
   }
+  if (!std::isfinite(robot_radius) || robot_radius < 0.0) throw std::invalid_argument("robot_radius must be >= 0");
+  if (!std::isfinite(obstacle_stop_gap) || obstacle_stop_gap < 0.0) {
+    throw std::invalid_argument("obstacle_stop_gap must be finite and >= 0");
+  }
+  if (!std::isfinite(obstacle_slow_gap) || !(obstacle_slow_gap > obstacle_stop_gap)) {
+    throw std::invalid_argument("obstacle_slow_gap must be finite and > obstacle_stop_gap");
+  }
   if (!std::isfinite(lost_search_delay) || lost_search_delay < 0.0) {
     throw std::invalid_argument("lost_search_delay must be finite and >= 0");
   }
@@ -237,6 +244,12 @@ FollowOutput RouteFollower::update(double now, double dt,
   while (next_ + 1 < sequence_.size() && reached(next_)) ++next_;
   const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
   const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
+  // Whatever drives the robot forward is capped for what stands in the corridor ahead.
+  std::string blocked;
+  const double speed_cap = obstacleSpeedLimit(obstacles, &blocked);
+  auto go = [&](double to_goal) {
+    return following(controller_.capLinearVelocity(speed_cap), to_goal, blocked);
+  };
   if (next_ + 1 == sequence_.size() && (at_final_position_ || distance < options_.final_approach_distance)) {
     const auto command = finalApproach(goal, distance, dt);
     if (!command) {
@@ -244,17 +257,31 @@ FollowOutput RouteFollower::update(double now, double dt,
       return stop(FollowState::kFinished, "end of the route");
     }
     if (!*command) return stop(FollowState::kStopped, command->status().message());
-    return following(**command, distance);
+    return go(distance);
   }
   const double bearing = goalBearing(pose_, goal, heading_offset_);
   if (options_.turn_in_place_angle > 0.0 && std::abs(bearing) > options_.turn_in_place_angle) {
     const auto command = controller_.track(0.0, options_.final_turn_gain * bearing, dt);
     if (!command) return stop(FollowState::kStopped, command.status().message());
-    return following(*command, distance);
+    return go(distance);
   }
   const auto command = controller_.step(distance + straightRunAfter(next_), bearing, obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
-  return following(*command, distance);
+  return go(distance);
+}
+
+double RouteFollower::obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, std::string* reason) const {
+  const double v_max = options_.controller.max_linear_velocity;
+  if (!(options_.robot_radius > 0.0)) return v_max;
+  double gap = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector2d& o : obstacles) {
+    if (o.x() > 0.0 && std::abs(o.y()) < options_.robot_radius) gap = std::min(gap, o.x() - options_.robot_radius);
+  }
+  const double fraction = std::clamp(
+      (gap - options_.obstacle_stop_gap) / (options_.obstacle_slow_gap - options_.obstacle_stop_gap), 0.0, 1.0);
+  // No figure in the reason: controller_node publishes its state on every change.
+  if (fraction < 1.0) *reason = fraction > 0.0 ? "slowed down: something in the way" : "waiting: something in the way";
+  return fraction * v_max;
 }
 
 double RouteFollower::straightRunAfter(std::size_t position) const {
@@ -288,7 +315,8 @@ double RouteFollower::toleranceOf(std::size_t position) const {
                 : options_.controller.goal_tolerance;
 }
 
-FollowOutput RouteFollower::following(const VelocityCommand& command, double distance) const {
+FollowOutput RouteFollower::following(const VelocityCommand& command, double distance,
+                                      const std::string& reason) const {
   FollowOutput out;
   out.command = command;
   out.state = FollowState::kFollowing;
@@ -297,6 +325,7 @@ FollowOutput RouteFollower::following(const VelocityCommand& command, double dis
   out.distance_to_goal = distance;
   out.progress = static_cast<double>(next_) / static_cast<double>(sequence_.size());
   if (trust_ == PoseTrust::kDegraded) out.reason = "slowed down: integrity DEGRADED (" + trust_reason_ + ")";
+  if (!reason.empty()) out.reason = out.reason.empty() ? reason : out.reason + "; " + reason;
   return out;
 }
 

@@ -58,6 +58,9 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.lost_search_delay = readParameter(nh, "lost_search_delay", o.lost_search_delay);
     o.lost_search_angle = readParameter(nh, "lost_search_angle", o.lost_search_angle);
     o.lost_search_velocity = readParameter(nh, "lost_search_velocity", o.lost_search_velocity);
+    o.robot_radius = readParameter(nh, "robot_radius", o.robot_radius);
+    o.obstacle_stop_gap = readParameter(nh, "obstacle_stop_gap", o.obstacle_stop_gap);
+    o.obstacle_slow_gap = readParameter(nh, "obstacle_slow_gap", o.obstacle_slow_gap);
     o.validate();
   });
   return o;

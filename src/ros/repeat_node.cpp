@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/ros/repeat_node.h"
 
+#include <std_srvs/Trigger.h>
+
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -43,6 +45,39 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   auto pipeline = RepeatPipeline::create(*route, options);
   if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
   pipeline_.emplace(std::move(*pipeline));
+  route_ = *route;
+  // Routes that learn (docs/route_format.md, "Experiences").
+  if (readParameter(private_nh, "learn_experiences", false)) {
+    ExperienceLearningOptions learning;
+    learning.learn_below_inliers = readParameter(private_nh, "learn_below_inliers", learning.learn_below_inliers);
+    learning.max_distance = readParameter(private_nh, "learn_max_distance", learning.max_distance);
+    learning.max_angle = readParameter(private_nh, "learn_max_angle", learning.max_angle);
+    learning.max_position_sigma = readParameter(private_nh, "learn_max_position_sigma", learning.max_position_sigma);
+    learning.max_experiences = readParameter(private_nh, "max_experiences", learning.max_experiences);
+    std::vector<Pose2D> poses;
+    for (const auto& k : route->keyframes) poses.push_back(k.pose);
+    try {
+      recorder_.emplace(poses, learning);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("learning parameters in " + private_nh.getNamespace() + ": " + e.what());
+    }
+    experience_extractor_.emplace(FeatureOptions{route->info.feature_type, options.localization.max_features});
+    save_experiences_service_ = private_nh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
+        "save_experiences", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          bool ok = false;
+          response.message = saveExperiences(&ok);
+          response.success = ok;
+          return true;
+        });
+    ROS_INFO("repeat_node: learning: views where a keyframe matches with fewer than %d inliers are added to the route "
+             "(at most %d per keyframe)",
+             learning.learn_below_inliers, learning.max_experiences);
+  }
+  if (pipeline_->localizer().experienceCount() > 0) {
+    ROS_INFO("repeat_node: the route has %d learned views (experiences) besides its keyframes",
+             pipeline_->localizer().experienceCount());
+  }
 
   pose_publisher_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 5);
   heading_publisher_ = private_nh_.advertise<HeadingCorrectionStamped>("heading_correction", 5);
@@ -94,6 +129,27 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   if (!pipeline_->hybridNotes().empty()) {
     ROS_WARN("repeat_node: hybrid mode runs on what the route has: %s", pipeline_->hybridNotes().c_str());
   }
+}
+
+RepeatNode::~RepeatNode() {
+  if (!recorder_) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  bool ok = false;
+  const std::string outcome = saveExperiences(&ok);
+  if (ok) ROS_INFO("repeat_node: %s", outcome.c_str());
+  else ROS_ERROR("repeat_node: %s", outcome.c_str());
+}
+
+std::string RepeatNode::saveExperiences(bool* ok) {
+  *ok = false;
+  if (!recorder_) return "learning is off (learn_experiences)";
+  const std::size_t candidates = recorder_->candidates().size();
+  const auto added = recorder_->commit(*route_, *experience_extractor_);
+  if (!added) return "learned views not saved: " + added.status().message();
+  *ok = true;
+  experiences_saved_ += *added;
+  return "added " + std::to_string(*added) + " learned view(s) of " + std::to_string(candidates) + " to route '" +
+         route_->directory + "' (" + std::to_string(experiences_saved_) + " in this run; used from the next run)";
 }
 
 void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
@@ -149,6 +205,18 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
   const RepeatFrameResult result =
       pipeline_->processFrame(image->header.stamp.toSec(), cv_image, ros_conversions::toPinholeCamera(*camera_info));
   publish(image, result, cv_image);
+  if (recorder_ && cv_image && result.pose && result.covariance) {
+    ExperienceObservation observation;
+    observation.stamp = image->header.stamp.toSec();
+    observation.image = *cv_image;
+    observation.pose = *result.pose;
+    observation.covariance = *result.covariance;
+    observation.trusted = result.integrity.level == IntegrityLevel::kOk;
+    const bool taught_view = result.status.isOk() && result.estimate && result.estimate->has_pose &&
+                             !result.estimate->degraded && result.estimate->experience == 0;
+    observation.taught_inliers = taught_view ? result.estimate->inliers : -1;
+    recorder_->observe(observation);
+  }
   FrameTiming timing;
   timing.processing_ms = 1e3 * (ros::WallTime::now() - started).toSec();
   timing.age_ms = age_ms;

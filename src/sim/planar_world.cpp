@@ -5,8 +5,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
+#include <utility>
 #include <stdexcept>
 
 namespace homography_teach_repeat {
@@ -45,7 +49,108 @@ cv::Vec3b colour(const YAML::Node& node, const std::string& field, const cv::Vec
   return c;
 }
 
+// A box's look: height, texture (relative to `folder`) and texture_size.
+BoxSurface boxSurface(const YAML::Node& node, const std::string& field, const std::filesystem::path& folder) {
+  BoxSurface surface;
+  surface.height = finiteNumber(node["height"], field + ".height");
+  const YAML::Node size = node["texture_size"];
+  if (!size || !size.IsSequence() || size.size() != 2) throw FieldError("'" + field + ".texture_size' must be [w, h]");
+  surface.texture_width = finiteNumber(size[0], field + ".texture_size[0]");
+  surface.texture_height = finiteNumber(size[1], field + ".texture_size[1]");
+  if (!node["texture"] || !node["texture"].IsScalar()) throw FieldError("'" + field + ".texture' is missing");
+  std::filesystem::path texture = node["texture"].as<std::string>();
+  if (texture.is_relative()) texture = folder / texture;
+  surface.texture_path = texture.string();
+  surface.texture = cv::imread(surface.texture_path, cv::IMREAD_COLOR);
+  if (surface.texture.empty()) throw FieldError("'" + field + ".texture': cannot read image '" + surface.texture_path + "'");
+  return surface;
+}
+
+// [length, width]-style pairs of the file.
+std::pair<double, double> pair(const YAML::Node& node, const std::string& field, const char* names) {
+  if (!node || !node.IsSequence() || node.size() != 2) throw FieldError("'" + field + "' must be " + names);
+  return {finiteNumber(node[0], field + "[0]"), finiteNumber(node[1], field + "[1]")};
+}
+
+std::string checkSurface(const BoxSurface& s) {
+  if (!std::isfinite(s.height) || !(s.height > 0.0)) return "height must be > 0";
+  if (!std::isfinite(s.texture_width) || !(s.texture_width > 0.0) || !std::isfinite(s.texture_height) ||
+      !(s.texture_height > 0.0)) {
+    return "texture_size must be > 0";
+  }
+  if (s.texture.empty() || s.texture.type() != CV_8UC3) return "no BGR texture image";
+  return "";
+}
+
 }  // namespace
+
+std::vector<Wall> boxWalls(const std::string& name, const Eigen::Vector2d& centre, double length, double width,
+                           double yaw, const BoxSurface& surface) {
+  const Eigen::Vector2d along(std::cos(yaw), std::sin(yaw)), across(-std::sin(yaw), std::cos(yaw));
+  // Counter-clockwise seen from above: a viewer outside each side reads its texture left to right.
+  const std::array<Eigen::Vector2d, 4> corners{
+      centre + 0.5 * length * along - 0.5 * width * across, centre + 0.5 * length * along + 0.5 * width * across,
+      centre - 0.5 * length * along + 0.5 * width * across, centre - 0.5 * length * along - 0.5 * width * across};
+  static const std::array<const char*, 4> kSides{"front", "left", "back", "right"};
+  std::vector<Wall> walls;
+  for (std::size_t i = 0; i < 4; ++i) {
+    Wall wall;
+    wall.name = name + "." + kSides[i];
+    wall.start = corners[i];
+    wall.end = corners[(i + 1) % 4];
+    wall.height = surface.height;
+    wall.texture = surface.texture;
+    wall.texture_path = surface.texture_path;
+    wall.texture_width = surface.texture_width;
+    wall.texture_height = surface.texture_height;
+    wall.see_over = true;
+    walls.push_back(std::move(wall));
+  }
+  return walls;
+}
+
+double distanceToBox(const Eigen::Vector2d& point, const Pose2D& pose, double length, double width) {
+  const double dx = point.x() - pose.x, dy = point.y() - pose.y;
+  const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+  const double along = std::abs(c * dx + s * dy) - 0.5 * length;
+  const double across = std::abs(-s * dx + c * dy) - 0.5 * width;
+  return std::hypot(std::max(along, 0.0), std::max(across, 0.0));
+}
+
+double Person::pathLength() const {
+  double length = 0.0;
+  for (std::size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
+  return length;
+}
+
+Pose2D Person::poseAt(double time) const {
+  // The point `s` metres along the path and the direction of the leg it is on.
+  auto along = [&](double s, bool backwards) {
+    Eigen::Vector2d direction(1.0, 0.0);
+    for (std::size_t i = 1; i < path.size(); ++i) {
+      const Eigen::Vector2d leg = path[i] - path[i - 1];
+      const double n = leg.norm();
+      if (n < 1e-9) continue;
+      direction = leg / n;
+      if (s <= n || i + 1 == path.size()) {
+        const Eigen::Vector2d p = path[i - 1] + std::clamp(s, 0.0, n) * direction;
+        if (backwards) direction = -direction;
+        return Pose2D(p.x(), p.y(), std::atan2(direction.y(), direction.x()));
+      }
+      s -= n;
+    }
+    return Pose2D(path.front().x(), path.front().y(), 0.0);
+  };
+  const double length = pathLength();
+  const double walk = length / speed;
+  const double cycle = 2.0 * walk + pause_at_start + pause_at_end;
+  if (time <= start_time) return along(0.0, false);
+  const double t = std::fmod(time - start_time, cycle);
+  if (t < walk) return along(speed * t, false);
+  if (t < walk + pause_at_end) return along(length, false);
+  if (t < 2.0 * walk + pause_at_end) return along(length - speed * (t - walk - pause_at_end), true);
+  return along(0.0, true);
+}
 
 double Illumination::gainAt(double time) const {
   return 1.0 + amplitude * std::sin(2.0 * M_PI * time / period);
@@ -80,7 +185,101 @@ Status PlanarWorld::validate() const {
     if (!r.min.allFinite() || !r.max.allFinite()) return bad(name + ": min/max not finite");
     if (!(r.min.array() < r.max.array()).all()) return bad(name + ": min must be below max in x and y");
   }
+  for (std::size_t i = 0; i < clutter.size(); ++i) {
+    const ClutterBox& c = clutter[i];
+    const std::string name = "clutter[" + std::to_string(i) + "]" + (c.name.empty() ? "" : " (" + c.name + ")");
+    if (!c.centre.allFinite() || !std::isfinite(c.yaw)) return bad(name + ": centre/yaw not finite");
+    if (!std::isfinite(c.length) || !(c.length > 0.0) || !std::isfinite(c.width) || !(c.width > 0.0)) {
+      return bad(name + ": size must be > 0");
+    }
+    if (const std::string problem = checkSurface(c.surface); !problem.empty()) return bad(name + ": " + problem);
+  }
+  for (std::size_t i = 0; i < people.size(); ++i) {
+    const Person& p = people[i];
+    const std::string name = "people[" + std::to_string(i) + "]" + (p.name.empty() ? "" : " (" + p.name + ")");
+    if (p.path.size() < 2) return bad(name + ": path needs at least two points");
+    for (const auto& point : p.path) {
+      if (!point.allFinite()) return bad(name + ": path point not finite");
+    }
+    if (!(p.pathLength() > 1e-6)) return bad(name + ": path of zero length (a person must walk somewhere)");
+    if (!std::isfinite(p.speed) || !(p.speed > 0.0) || p.speed > 3.0) return bad(name + ": speed must be in (0, 3] m/s");
+    if (!std::isfinite(p.pause_at_start) || p.pause_at_start < 0.0 || !std::isfinite(p.pause_at_end) ||
+        p.pause_at_end < 0.0) {
+      return bad(name + ": pause must be >= 0");
+    }
+    if (!std::isfinite(p.start_time) || p.start_time < 0.0) return bad(name + ": start_time must be >= 0");
+    if (!std::isfinite(p.depth) || !(p.depth > 0.0) || !std::isfinite(p.width) || !(p.width > 0.0)) {
+      return bad(name + ": size must be > 0");
+    }
+    if (const std::string problem = checkSurface(p.surface); !problem.empty()) return bad(name + ": " + problem);
+  }
   return Status::ok();
+}
+
+PlanarWorld PlanarWorld::withClutter() const {
+  PlanarWorld world = *this;
+  for (const ClutterBox& c : clutter) {
+    for (Wall& wall : boxWalls(c.name, c.centre, c.length, c.width, c.yaw, c.surface)) world.walls.push_back(std::move(wall));
+  }
+  world.clutter.clear();
+  return world;
+}
+
+PlanarWorld PlanarWorld::withPeopleAt(double time) const {
+  std::vector<Pose2D> poses;
+  for (const Person& person : people) poses.push_back(person.poseAt(time));
+  return withPeople(poses);
+}
+
+PlanarWorld PlanarWorld::withPeople(const std::vector<Pose2D>& poses) const {
+  PlanarWorld world = *this;
+  for (std::size_t i = 0; i < people.size() && i < poses.size(); ++i) {
+    const Person& person = people[i];
+    const Pose2D& pose = poses[i];
+    for (Wall& wall : boxWalls(person.name, Eigen::Vector2d(pose.x, pose.y), person.depth, person.width, pose.yaw,
+                               person.surface)) {
+      world.walls.push_back(std::move(wall));
+    }
+  }
+  world.people.clear();
+  return world;
+}
+
+Crowd::Crowd(std::vector<Person> people, double yield_distance, double yield_width)
+    : people_(std::move(people)),
+      clocks_(people_.size(), 0.0),
+      yielded_(people_.size(), 0.0),
+      yield_distance_(yield_distance),
+      yield_width_(yield_width) {}
+
+void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
+  if (!started_) {
+    std::fill(clocks_.begin(), clocks_.end(), time);
+    started_ = true;
+  }
+  for (std::size_t i = 0; i < people_.size(); ++i) {
+    const Pose2D now = people_[i].poseAt(clocks_[i]);
+    const Pose2D next = people_[i].poseAt(clocks_[i] + dt);
+    // Stands while the robot is in their lane ahead: within yield_distance along the way they walk
+    // and yield_width across it. Someone who would pass beside the robot walks on.
+    const Eigen::Vector2d step(next.x - now.x, next.y - now.y), to_robot(robot.x() - now.x, robot.y() - now.y);
+    if (step.norm() > 0.0) {
+      const Eigen::Vector2d direction = step.normalized();
+      const double along = direction.dot(to_robot);
+      const double across = std::abs(direction.x() * to_robot.y() - direction.y() * to_robot.x());
+      if (along > 0.0 && along < yield_distance_ && across < yield_width_) {
+        yielded_[i] += dt;
+        continue;
+      }
+    }
+    clocks_[i] += dt;
+  }
+}
+
+std::vector<Pose2D> Crowd::poses() const {
+  std::vector<Pose2D> poses;
+  for (std::size_t i = 0; i < people_.size(); ++i) poses.push_back(people_[i].poseAt(clocks_[i]));
+  return poses;
 }
 
 bool PlanarWorld::cameraCoveredAt(const Eigen::Vector2d& position) const {
@@ -144,6 +343,46 @@ Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
         region.min = point(covered[i]["min"], field + ".min");
         region.max = point(covered[i]["max"], field + ".max");
         world.camera_covered.push_back(std::move(region));
+      }
+    }
+    if (const YAML::Node clutter = root["clutter"]) {
+      if (!clutter.IsSequence()) throw FieldError("'clutter' must be a list of boxes");
+      for (std::size_t i = 0; i < clutter.size(); ++i) {
+        const std::string field = "clutter[" + std::to_string(i) + "]";
+        const YAML::Node node = clutter[i];
+        ClutterBox box;
+        box.name = node["name"] ? node["name"].as<std::string>() : field;
+        box.centre = point(node["centre"], field + ".centre");
+        std::tie(box.length, box.width) = pair(node["size"], field + ".size", "[length, width]");
+        if (node["yaw"]) box.yaw = finiteNumber(node["yaw"], field + ".yaw");
+        box.surface = boxSurface(node, field, folder);
+        world.clutter.push_back(std::move(box));
+      }
+    }
+    if (const YAML::Node people = root["people"]) {
+      if (!people.IsSequence()) throw FieldError("'people' must be a list");
+      for (std::size_t i = 0; i < people.size(); ++i) {
+        const std::string field = "people[" + std::to_string(i) + "]";
+        const YAML::Node node = people[i];
+        Person person;
+        person.name = node["name"] ? node["name"].as<std::string>() : field;
+        const YAML::Node path = node["path"];
+        if (!path || !path.IsSequence()) throw FieldError("'" + field + ".path' must be a list of [x, y]");
+        for (std::size_t k = 0; k < path.size(); ++k) {
+          person.path.push_back(point(path[k], field + ".path[" + std::to_string(k) + "]"));
+        }
+        if (node["speed"]) person.speed = finiteNumber(node["speed"], field + ".speed");
+        if (const YAML::Node pause = node["pause"]) {
+          if (pause.IsSequence()) {
+            std::tie(person.pause_at_start, person.pause_at_end) = pair(pause, field + ".pause", "[at_start, at_end]");
+          } else {
+            person.pause_at_start = person.pause_at_end = finiteNumber(pause, field + ".pause");
+          }
+        }
+        if (node["start_time"]) person.start_time = finiteNumber(node["start_time"], field + ".start_time");
+        if (node["size"]) std::tie(person.depth, person.width) = pair(node["size"], field + ".size", "[depth, width]");
+        person.surface = boxSurface(node, field, folder);
+        world.people.push_back(std::move(person));
       }
     }
     const YAML::Node walls = root["walls"];

@@ -42,23 +42,38 @@ struct Surroundings {
   double lamp_spacing;
 };
 
-// The colour a ray sees: `hit` is where its horizontal part meets a wall (or nothing), `down` how
-// far it drops per unit of the ray parameter (the wall point's height is camera_height − down·t).
-cv::Vec3f colourAlong(const PlanarWorld& world, const std::optional<RayHit>& hit, double down,
-                      const Surroundings& s) {
-  if (!hit) return down > 0.0 ? s.floor : s.ceiling;
-  const Wall& wall = world.walls[static_cast<std::size_t>(hit->wall)];
-  const double z = s.camera_height - down * hit->range;  // height on the wall [m]
-  if (z < 0.0) return s.floor;
-  if (z > wall.height) return s.ceiling;
-  // Texture tiled from the wall's start point and up from the floor (image rows downward).
-  const double tu = hit->along / wall.texture_width * wall.texture.cols;
-  const double tv = (1.0 - std::fmod(z, wall.texture_height) / wall.texture_height) * wall.texture.rows;
-  cv::Vec3f colour = sampleTiled(wall.texture, tu - 0.5, tv - 0.5);
-  if (s.lamp_contrast > 0.0) {
-    colour *= static_cast<float>(1.0 + s.lamp_contrast * std::cos(2.0 * M_PI * hit->along / s.lamp_spacing));
+// The colour a ray sees: `hit` is the first wall its horizontal part origin + t·direction meets (or
+// nothing), `down` how far it drops per unit of t (a wall point's height is camera_height − down·t).
+// Above a room wall is the ceiling; above an object standing in the room (Wall::see_over) the ray
+// goes on to what is behind it, and where it meets such an object's side from inside, below its
+// top, it came down onto the object's top (drawn flat grey).
+cv::Vec3f colourAlong(const PlanarWorld& world, const Eigen::Vector2d& origin, const Eigen::Vector2d& direction,
+                      std::optional<RayHit> hit, double down, const Surroundings& s) {
+  while (hit) {
+    const Wall& wall = world.walls[static_cast<std::size_t>(hit->wall)];
+    const double z = s.camera_height - down * hit->range;  // height on the wall [m]
+    if (z < 0.0) return s.floor;
+    if (z > wall.height) {
+      if (!wall.see_over) return s.ceiling;
+      hit = castRay(world, origin, direction, hit->range);  // over it: what is behind
+      continue;
+    }
+    if (wall.see_over) {
+      // Sides are listed counter-clockwise (outward normal on the right of start -> end): a ray
+      // meeting one from inside has come down onto the top.
+      const Eigen::Vector2d edge = wall.end - wall.start;
+      if (direction.dot(Eigen::Vector2d(edge.y(), -edge.x())) > 0.0) return cv::Vec3f(128.0f, 128.0f, 128.0f);
+    }
+    // Texture tiled from the wall's start point and up from the floor (image rows downward).
+    const double tu = hit->along / wall.texture_width * wall.texture.cols;
+    const double tv = (1.0 - std::fmod(z, wall.texture_height) / wall.texture_height) * wall.texture.rows;
+    cv::Vec3f colour = sampleTiled(wall.texture, tu - 0.5, tv - 0.5);
+    if (s.lamp_contrast > 0.0) {
+      colour *= static_cast<float>(1.0 + s.lamp_contrast * std::cos(2.0 * M_PI * hit->along / s.lamp_spacing));
+    }
+    return colour;
   }
-  return colour;
+  return down > 0.0 ? s.floor : s.ceiling;
 }
 
 // The level camera's optical axes in base_link (columns: x right = −y, y down = −z, z forward = x).
@@ -133,8 +148,11 @@ cv::Mat WorldRenderer::render(const PlanarWorld& world, const Pose2D& camera_pos
       // Ray of the column: forward + x_n right, x_n = (u - cx) / fx; its parameter t is the depth
       // along the optical axis, and a pixel's ray drops y_n = (v - cy) / fy per unit of t.
       const double xn = (u - camera_.cx()) / camera_.fx();
-      const auto hit = castRay(world, origin, forward + xn * right);
-      for (int v = 0; v < height; ++v) put(v, u, colourAlong(world, hit, (v - camera_.cy()) / camera_.fy(), surroundings));
+      const Eigen::Vector2d direction = forward + xn * right;
+      const auto hit = castRay(world, origin, direction);
+      for (int v = 0; v < height; ++v) {
+        put(v, u, colourAlong(world, origin, direction, hit, (v - camera_.cy()) / camera_.fy(), surroundings));
+      }
     }
   } else {
     std::size_t i = 0;
@@ -143,7 +161,7 @@ cv::Mat WorldRenderer::render(const PlanarWorld& world, const Pose2D& camera_pos
         const Eigen::Vector3d& ray = pixel_rays_[i];  // right, down, forward
         const Eigen::Vector2d horizontal = ray.z() * forward + ray.x() * right;
         const auto hit = horizontal.squaredNorm() > 1e-18 ? castRay(world, origin, horizontal) : std::nullopt;
-        put(v, u, colourAlong(world, hit, ray.y(), surroundings));
+        put(v, u, colourAlong(world, origin, horizontal, hit, ray.y(), surroundings));
       }
     }
   }

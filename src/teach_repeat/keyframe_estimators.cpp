@@ -59,6 +59,7 @@ class PointEstimator : public KeyframeEstimator {
     RepeatEstimate estimate;
     estimate.mode = context_.options.mode;
     estimate.keyframe = keyframe;
+    estimate.experience = reference.experience;
     estimate.matches = static_cast<int>(matches.size());
     std::vector<int> inliers;
     auto relative = cameraPose(reference, matches, &inliers, &estimate);

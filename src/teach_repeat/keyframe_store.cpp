@@ -70,7 +70,46 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
     store.triangulateLines(PinholeCamera(route.info.camera), mount, options.line_landmarks);
   }
+  store.experiences_.resize(store.keyframes_.size());
+  if (options.mode != RepeatMode::kMu && options.use_experiences) {
+    const Status loaded = store.loadExperiences(route, mount);
+    if (!loaded.isOk()) return loaded;
+  }
   return store;
+}
+
+Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mount) {
+  for (std::size_t k = 0; k < keyframes_.size(); ++k) {
+    const KeyframeReference& keyframe = keyframes_[k];
+    const auto& experiences = route.keyframes[k].experiences;
+    for (std::size_t e = experiences.size(); e-- > 0;) {  // newest first
+      if (!keyframe.plane) continue;  // a pose needs the place's plane
+      const RouteExperience& learned = experiences[e];
+      // The experience's camera in the keyframe's camera frame carries the plane into its frame.
+      const PlanarPose relative = mount.baseToCamera(keyframe.base_pose.inverse().compose(learned.pose));
+      const auto plane = transferPlane(*keyframe.plane, relative);
+      if (!plane) continue;  // (its camera behind the keyframe's plane: not a view of it)
+      auto features = loadExperienceFeatures(route, k, e);
+      if (!features) return features.status();
+      KeyframeReference reference;
+      reference.features = std::move(*features);
+      reference.base_pose = learned.pose;
+      reference.base_pose_covariance = learned.pose_covariance;
+      reference.plane = *plane;
+      reference.plane_normal_sigma_rad = keyframe.plane_normal_sigma_rad;
+      reference.plane_distance_sigma = keyframe.plane_distance_sigma;
+      reference.turn = keyframe.turn;
+      reference.experience = learned.id;
+      experiences_[k].push_back(std::move(reference));
+    }
+  }
+  return Status::ok();
+}
+
+int KeyframeStore::experienceCount() const {
+  int count = 0;
+  for (const auto& e : experiences_) count += static_cast<int>(e.size());
+  return count;
 }
 
 void KeyframeStore::triangulateLines(const PinholeCamera& camera, const CameraMount& mount,

@@ -117,31 +117,43 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
   // The first estimate the check refused: returned when no other reference gives one it accepts
   // (the caller decides about it, as without a check).
   std::optional<RepeatEstimate> first_refused;
-  auto use = [&](RepeatEstimate estimate, int k) -> Expected<RepeatEstimate> {
-    keepAsTemporaryReference(frame, estimate, keyframes_.at(k));
+  // The view an estimate was made against: the keyframe's taught view or one of its experiences.
+  auto viewOf = [&](const RepeatEstimate& estimate) -> const KeyframeReference& {
+    for (const KeyframeReference& e : keyframes_.experiences(estimate.keyframe)) {
+      if (e.experience == estimate.experience) return e;
+    }
+    return keyframes_.at(estimate.keyframe);
+  };
+  auto use = [&](RepeatEstimate estimate) -> Expected<RepeatEstimate> {
+    keepAsTemporaryReference(frame, estimate, viewOf(estimate));
     degraded_frames_ = 0;
-    rememberForTracking(estimate, gray, 0);
+    // Tracking follows the taught view's features only (an experience has its own).
+    if (estimate.experience == 0) rememberForTracking(estimate, gray, 0);
+    else tracker_.forget();
     advanceTracking(estimate);
     return estimate;
   };
   for (const int k : candidates) {
-    auto estimate = against(keyframes_.at(k), k);
-    if (!estimate) {
-      // Every candidate's reason, nearest first: which keyframe failed how is what a user needs.
-      const std::string reason = "keyframe " + std::to_string(k) + ": " + estimate.status().message();
-      const bool first = k == candidates.front();
-      last_failure = Status(first ? estimate.status().code() : last_failure.code(),
-                            first ? reason : last_failure.message() + "; " + reason);
-      continue;
+    // The taught view, then (when it fails or its pose is refused) the learned ones, newest first.
+    std::vector<const KeyframeReference*> views{&keyframes_.at(k)};
+    for (const KeyframeReference& e : keyframes_.experiences(k)) views.push_back(&e);
+    for (const KeyframeReference* view : views) {
+      auto estimate = against(*view, k);
+      if (!estimate) {
+        if (view->experience != 0) continue;  // the taught view's reason is the one to report
+        // Every candidate's reason, nearest first: which keyframe failed how is what a user needs.
+        const std::string reason = "keyframe " + std::to_string(k) + ": " + estimate.status().message();
+        const bool first = k == candidates.front();
+        last_failure = Status(first ? estimate.status().code() : last_failure.code(),
+                              first ? reason : last_failure.message() + "; " + reason);
+        continue;
+      }
+      const Status verdict = vet(check, *estimate);
+      if (verdict.isOk()) return use(std::move(*estimate));
+      if (!first_refused) first_refused = std::move(*estimate);
     }
-    const Status verdict = vet(check, *estimate);
-    if (verdict.isOk()) return use(std::move(*estimate), k);
-    if (!first_refused) first_refused = std::move(*estimate);
   }
-  if (first_refused) {
-    const int k = first_refused->keyframe;
-    return use(std::move(*first_refused), k);
-  }
+  if (first_refused) return use(std::move(*first_refused));
   const bool temporary_usable =
       temporary_ && estimator_->usable(*temporary_, temporary_keyframe_, predicted_pose);
   if (!temporary_usable || degraded_frames_ >= max_degraded_frames) return last_failure;

@@ -96,6 +96,20 @@ class Reader {
   std::string file_;
 };
 
+Status writeImageFile(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png)) return Status(StatusCode::kInvalidInput, "cannot encode an image as PNG");
+  return writeFileAtomically(path, std::string(png.begin(), png.end()));
+}
+
+Status writeFeaturesFile(const std::string& path, const ImageFeatures& features) {
+  cv::FileStorage storage(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  storage << "feature_type" << toString(features.type);
+  cv::write(storage, "keypoints", features.keypoints);
+  storage << "descriptors" << features.descriptors;
+  return writeFileAtomically(path, storage.releaseAndGetString());
+}
+
 }  // namespace
 
 Expected<RouteWriter> RouteWriter::create(const std::string& directory, const RouteInfo& info,
@@ -151,20 +165,10 @@ Status RouteWriter::addKeyframe(const cv::Mat& image, const ImageFeatures& featu
   keyframe.features_file = stem + ".features.yml";
   keyframe.lines_file = stem + ".lines.yml";
 
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) {
-    return Status(StatusCode::kInvalidInput, "cannot encode keyframe image as PNG");
-  }
-  Status status = writeFileAtomically(route_.directory + "/" + keyframe.image_file,
-                                      std::string(png.begin(), png.end()));
+  Status status = writeImageFile(route_.directory + "/" + keyframe.image_file, image);
   if (!status.isOk()) return status;
 
-  cv::FileStorage storage(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  storage << "feature_type" << toString(features.type);
-  cv::write(storage, "keypoints", features.keypoints);
-  storage << "descriptors" << features.descriptors;
-  status = writeFileAtomically(route_.directory + "/" + keyframe.features_file,
-                               storage.releaseAndGetString());
+  status = writeFeaturesFile(route_.directory + "/" + keyframe.features_file, features);
   if (!status.isOk()) return status;
 
   YAML::Emitter out;
@@ -210,8 +214,10 @@ Status RouteWriter::setPlanes(const std::vector<std::optional<ScenePlane>>& plan
   return writeIndex();
 }
 
-Status RouteWriter::writeIndex() const {
-  const RouteInfo& info = route_.info;
+Status RouteWriter::writeIndex() const { return writeRouteIndex(route_); }
+
+Status writeRouteIndex(const Route& route) {
+  const RouteInfo& info = route.info;
   YAML::Emitter out;
   out << YAML::BeginMap;
   out << YAML::Key << "format_version" << YAML::Value << kRouteFormatVersion;
@@ -236,7 +242,7 @@ Status RouteWriter::writeIndex() const {
   emitPose(out, info.camera_mount);
   out << YAML::Key << "first_plane_distance" << YAML::Value << info.first_plane_distance;
   out << YAML::Key << "keyframes" << YAML::Value << YAML::BeginSeq;
-  for (const auto& k : route_.keyframes) {
+  for (const auto& k : route.keyframes) {
     out << YAML::BeginMap;
     out << YAML::Key << "index" << YAML::Value << k.index;
     out << YAML::Key << "stamp" << YAML::Value << k.stamp;
@@ -251,10 +257,27 @@ Status RouteWriter::writeIndex() const {
           << k.plane->normal.x() << k.plane->normal.y() << k.plane->normal.z() << YAML::EndSeq;
       out << YAML::Key << "distance" << YAML::Value << k.plane->distance << YAML::EndMap;
     }
+    if (!k.experiences.empty()) {
+      out << YAML::Key << "experiences" << YAML::Value << YAML::BeginSeq;
+      for (const RouteExperience& e : k.experiences) {
+        out << YAML::Flow << YAML::BeginMap;
+        out << YAML::Key << "id" << YAML::Value << e.id;
+        out << YAML::Key << "stamp" << YAML::Value << e.stamp;
+        out << YAML::Key << "pose" << YAML::Value;
+        emitPose(out, e.pose);
+        std::vector<double> covariance;
+        for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) covariance.push_back(e.pose_covariance(r, c));
+        out << YAML::Key << "pose_covariance" << YAML::Value << YAML::Flow << covariance;
+        out << YAML::Key << "image" << YAML::Value << e.image_file;
+        out << YAML::Key << "features" << YAML::Value << e.features_file;
+        out << YAML::EndMap;
+      }
+      out << YAML::EndSeq;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;
-  return writeFileAtomically(route_.directory + "/" + kIndexName, std::string(out.c_str()) + "\n");
+  return writeFileAtomically(route.directory + "/" + kIndexName, std::string(out.c_str()) + "\n");
 }
 
 Expected<Route> loadRoute(const std::string& directory) {
@@ -270,11 +293,12 @@ Expected<Route> loadRoute(const std::string& directory) {
     const YAML::Node root = YAML::LoadFile(index_path);
     if (!root.IsMap()) throw reader.error(root, "not a YAML map (empty or truncated file?)");
     const int version = reader.get<int>(root, "format_version");
-    if (version != kRouteFormatVersion) {
+    if (version < 1 || version > kRouteFormatVersion) {
       throw reader.error(root["format_version"],
-                         "unknown format_version " + std::to_string(version) + " (this build reads " +
+                         "unknown format_version " + std::to_string(version) + " (this build reads 1 to " +
                              std::to_string(kRouteFormatVersion) + ")");
     }
+    route.loaded_format_version = version;
     try {
       route.info.feature_type = featureTypeFromString(reader.get<std::string>(root, "feature_type"));
     } catch (const std::invalid_argument& e) {
@@ -333,6 +357,30 @@ Expected<Route> loadRoute(const std::string& directory) {
         if (valid.code() == StatusCode::kInvalidInput) throw reader.error(plane, valid.message());
         k.plane = p;
       }
+      if (const YAML::Node experiences = node["experiences"]) {
+        if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
+        if (!experiences.IsSequence()) throw reader.error(experiences, "'experiences' must be a list");
+        for (const auto& e : experiences) {
+          RouteExperience experience;
+          experience.id = reader.get<int>(e, "id");
+          experience.stamp = reader.finite(e, "stamp");
+          experience.pose = reader.pose(e, "pose");
+          const auto covariance = reader.get<std::vector<double>>(e, "pose_covariance");
+          if (covariance.size() != 9) throw reader.error(e, "field 'pose_covariance' needs 9 numbers (row-major)");
+          for (std::size_t i = 0; i < 9; ++i) {
+            if (!std::isfinite(covariance[i])) throw reader.error(e, "field 'pose_covariance' is not finite");
+            experience.pose_covariance(static_cast<int>(i / 3), static_cast<int>(i % 3)) = covariance[i];
+          }
+          experience.image_file = reader.get<std::string>(e, "image");
+          experience.features_file = reader.get<std::string>(e, "features");
+          for (const std::string* file : {&experience.image_file, &experience.features_file}) {
+            if (!fileExists(directory + "/" + *file)) {
+              throw reader.error(e, "experience file '" + directory + "/" + *file + "' is missing");
+            }
+          }
+          k.experiences.push_back(std::move(experience));
+        }
+      }
       route.keyframes.push_back(k);
     }
   } catch (const YAML::Exception& e) {
@@ -342,6 +390,60 @@ Expected<Route> loadRoute(const std::string& directory) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
   return route;
+}
+
+Status migrateRoute(const std::string& directory) {
+  auto route = loadRoute(directory);
+  if (!route) return route.status();
+  return writeRouteIndex(*route);
+}
+
+Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, const ImageFeatures& features,
+                     const Pose2D& pose, const Eigen::Matrix3d& pose_covariance, double stamp, int max_experiences) {
+  if (keyframe >= route.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "experience for keyframe " + std::to_string(keyframe) +
+                                                 ", the route has " + std::to_string(route.keyframes.size()));
+  }
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "experience image is empty");
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) || !std::isfinite(stamp) ||
+      !pose_covariance.allFinite()) {
+    return Status(StatusCode::kInvalidInput, "experience pose, covariance or stamp is not finite");
+  }
+  if (max_experiences < 1) return Status(StatusCode::kInvalidInput, "max_experiences must be >= 1");
+  if (features.type != route.info.feature_type) {
+    return Status(StatusCode::kInvalidInput, "experience features are " + toString(features.type) + ", the route's " +
+                                                 toString(route.info.feature_type));
+  }
+  RouteKeyframe& k = route.keyframes[keyframe];
+  RouteExperience experience;
+  for (const RouteExperience& e : k.experiences) experience.id = std::max(experience.id, e.id + 1);
+  experience.stamp = stamp;
+  experience.pose = pose;
+  experience.pose_covariance = pose_covariance;
+  const std::string stem = keyframeStem(k.index) + ".e" + std::to_string(experience.id);
+  experience.image_file = stem + ".png";
+  experience.features_file = stem + ".features.yml";
+  Status status = writeImageFile(route.directory + "/" + experience.image_file, image);
+  if (status.isOk()) status = writeFeaturesFile(route.directory + "/" + experience.features_file, features);
+  if (!status.isOk()) return status;
+  const std::vector<RouteExperience> before = k.experiences;
+  k.experiences.push_back(experience);
+  std::vector<RouteExperience> dropped;
+  while (static_cast<int>(k.experiences.size()) > max_experiences) {
+    dropped.push_back(k.experiences.front());
+    k.experiences.erase(k.experiences.begin());
+  }
+  status = writeRouteIndex(route);
+  if (!status.isOk()) {
+    k.experiences = before;
+    return status;
+  }
+  // The index no longer lists them: a crash before this leaves only unlisted files behind.
+  for (const RouteExperience& e : dropped) {
+    std::remove((route.directory + "/" + e.image_file).c_str());
+    std::remove((route.directory + "/" + e.features_file).c_str());
+  }
+  return Status::ok();
 }
 
 namespace {
@@ -366,10 +468,8 @@ Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe) {
   return image;
 }
 
-Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe) {
-  const Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  const std::string path = route.directory + "/" + route.keyframes[keyframe].features_file;
+namespace {
+Expected<ImageFeatures> loadFeaturesFile(const Route& route, const std::string& path) {
   ImageFeatures features;
   try {
     cv::FileStorage storage(path, cv::FileStorage::READ);
@@ -391,6 +491,24 @@ Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t key
                   "keyframe features '" + path + "' are inconsistent (type or count)");
   }
   return features;
+}
+}  // namespace
+
+Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  return loadFeaturesFile(route, route.directory + "/" + route.keyframes[keyframe].features_file);
+}
+
+Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  const auto& experiences = route.keyframes[keyframe].experiences;
+  if (experience >= experiences.size()) {
+    return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(keyframe) + " has no experience " +
+                                                 std::to_string(experience));
+  }
+  return loadFeaturesFile(route, route.directory + "/" + experiences[experience].features_file);
 }
 
 Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe) {

@@ -418,3 +418,67 @@ TEST(RouteFollower, KeepsItsSpeedAlongAStraightLeg) {
   EXPECT_LT(before_corner, 0.45);  // slowing down for the turn in place at x = 6
   std::printf("straight leg: %.2f m/s with the leg beyond the goal, %.2f m/s towards the goal alone\n", straight, paper);
 }
+
+// A person standing on the route: the robot slows down, stops short of them (the cap and the
+// repulsion together; never closer than its radius) and waits; once they step aside it drives on to the end. The
+// obstacle is given as laser points on the person's front (robot frame), as the scan shows them.
+TEST(RouteFollower, WaitsForSomeoneStandingInTheWay) {
+  std::vector<Pose2D> goals;
+  for (int k = 0; k <= 8; ++k) goals.emplace_back(0.5 * k, 0.0, 0.0);  // 4 m straight
+  RouteFollowerOptions options;
+  options.controller.goal_tolerance = 0.4;
+  RouteFollower follower(goals, options);
+  const Eigen::Vector2d person(2.5, 0.05);  // centre; a 0.3 x 0.5 m body
+  auto pointsOfPerson = [&](const Pose2D& robot) {
+    std::vector<Eigen::Vector2d> points;
+    for (double y = -0.25; y <= 0.25; y += 0.02) {
+      const Eigen::Vector2d world(person.x() - 0.15, person.y() + y);  // the side facing the robot
+      const double dx = world.x() - robot.x, dy = world.y() - robot.y;
+      points.emplace_back(std::cos(robot.yaw) * dx + std::sin(robot.yaw) * dy,
+                          -std::sin(robot.yaw) * dx + std::cos(robot.yaw) * dy);
+    }
+    return points;
+  };
+  Pose2D pose(0.0, 0.0, 0.0);
+  const double dt = 0.05;
+  double closest = 1e9;
+  bool waited = false;
+  FollowOutput out;
+  double t = 0.0;
+  for (; t < 60.0; t += dt) {
+    const bool standing = t < 20.0;
+    ASSERT_TRUE(follower.setFix(pose, t).isOk());
+    out = follower.update(t, dt, standing ? pointsOfPerson(pose) : std::vector<Eigen::Vector2d>{});
+    if (out.state == FollowState::kFinished) break;
+    ASSERT_EQ(out.state, FollowState::kFollowing) << out.reason;
+    if (standing) {
+      closest = std::min(closest, person.x() - 0.15 - pose.x);
+      if (t > 15.0) {
+        EXPECT_NEAR(out.command.linear, 0.0, 1e-9);
+        EXPECT_NE(out.reason.find("something in the way"), std::string::npos) << out.reason;
+        waited = true;
+      }
+    }
+    pose = integrate(pose, out.command, dt);
+  }
+  EXPECT_TRUE(waited);
+  EXPECT_EQ(out.state, FollowState::kFinished) << out.reason;
+  EXPECT_GT(closest, options.robot_radius + 0.5 * options.obstacle_stop_gap);
+  EXPECT_LT(closest, options.robot_radius + options.obstacle_slow_gap);  // it did come up to them
+  EXPECT_NEAR(pose.x, 4.0, 0.1);
+  std::printf("stopped %.2f m from the person's front (radius %.2f), finished at t = %.1f s\n", closest,
+              options.robot_radius, t);
+}
+
+// The obstacle parameters are checked: a slow gap not beyond the stop gap, a negative radius.
+TEST(RouteFollower, RefusesObstacleGapsOutOfOrder) {
+  RouteFollowerOptions options;
+  options.obstacle_slow_gap = 0.2;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.robot_radius = -0.1;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.robot_radius = 0.0;  // off
+  EXPECT_NO_THROW(options.validate());
+}

@@ -436,6 +436,145 @@ TEST(PlanarWorld, AppearanceVariantsReplaceTheirWallsTextures) {
   std::filesystem::remove_all(dir);
 }
 
+// Clutter and people from the world file: a box's four sides join the walls only with
+// withClutter(); a person walks the path at their speed, stands at its ends, and joins the walls
+// where they stand at that time; a path of zero length, a NaN or a bad speed are refused naming
+// the person and the field.
+TEST(PlanarWorld, ClutterAndPeopleFromTheWorldFile) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "htr_world_people_test";
+  std::filesystem::create_directories(dir);
+  cv::imwrite((dir / "t.png").string(), colourTexture(3));
+  auto write = [&](const std::string& extra) {
+    std::ofstream((dir / "w.yaml").string())
+        << "format_version: 1\nwalls:\n  - {start: [0, 0], end: [6, 0], height: 2, texture: t.png, texture_size: [1, 1]}\n"
+        << extra;
+    return loadPlanarWorld((dir / "w.yaml").string());
+  };
+  const auto world = write(
+      "clutter:\n  - {name: crate, centre: [2, 1], size: [0.8, 0.4], yaw: 0.5, height: 0.4, texture: t.png, "
+      "texture_size: [0.8, 0.4]}\n"
+      "people:\n  - {name: visitor, path: [[1, 1], [3, 1], [3, 2]], speed: 1.0, pause: [2.0, 5.0], start_time: 10, "
+      "size: [0.3, 0.5], height: 1.7, texture: t.png, texture_size: [0.5, 1.7]}\n");
+  ASSERT_TRUE(world.isOk()) << world.status().toString();
+  ASSERT_EQ(world->clutter.size(), 1u);
+  ASSERT_EQ(world->people.size(), 1u);
+  EXPECT_EQ(world->walls.size(), 1u);  // neither is a wall until asked for
+  const PlanarWorld cluttered = world->withClutter();
+  ASSERT_EQ(cluttered.walls.size(), 5u);
+  EXPECT_TRUE(cluttered.walls[1].see_over);
+  EXPECT_FALSE(cluttered.walls[0].see_over);
+  EXPECT_NEAR(cluttered.walls[1].length() + cluttered.walls[2].length(), 1.2, 1e-12);
+  EXPECT_NEAR(cluttered.walls[1].height, 0.4, 1e-12);
+
+  const Person& visitor = world->people[0];
+  EXPECT_NEAR(visitor.pathLength(), 3.0, 1e-12);
+  auto expectAt = [&](double time, double x, double y, double yaw) {
+    const Pose2D p = visitor.poseAt(time);
+    EXPECT_NEAR(p.x, x, 1e-9) << "t = " << time;
+    EXPECT_NEAR(p.y, y, 1e-9) << "t = " << time;
+    EXPECT_NEAR(std::abs(wrapToPi(p.yaw - yaw)), 0.0, 1e-9) << "t = " << time;
+  };
+  expectAt(0.0, 1.0, 1.0, 0.0);            // waiting for start_time at the first point
+  expectAt(11.5, 2.5, 1.0, 0.0);           // on the first leg
+  expectAt(12.5, 3.0, 1.5, M_PI / 2);      // on the second leg
+  expectAt(15.0, 3.0, 2.0, M_PI / 2);      // standing at the end (3 s walked, pause 5 s)
+  expectAt(18.5, 3.0, 1.5, -M_PI / 2);     // walking back
+  expectAt(20.5, 1.5, 1.0, M_PI);          // back on the first leg
+  expectAt(22.0, 1.0, 1.0, M_PI);          // standing at the start (pause 2 s)
+  expectAt(13.0 + 11.5, 2.5, 1.0, 0.0);    // the next round: a cycle of 3 + 5 + 3 + 2 s
+  EXPECT_NEAR(distanceToBox(Eigen::Vector2d(3.0, 0.5), visitor.poseAt(15.0), 0.3, 0.5), 1.5 - 0.15, 1e-12);
+  EXPECT_NEAR(distanceToBox(Eigen::Vector2d(3.0, 2.0), visitor.poseAt(15.0), 0.3, 0.5), 0.0, 1e-12);  // inside
+  EXPECT_NEAR(distanceToBox(Eigen::Vector2d(4.25, 3.15), visitor.poseAt(15.0), 0.3, 0.5), std::hypot(1.0, 1.0), 1e-12);
+  const PlanarWorld with_people = world->withPeopleAt(15.0);
+  ASSERT_EQ(with_people.walls.size(), 5u);
+  // The laser sees the person standing at (3, 2): from (3, 0.5) looking north, 1.5 m minus half a depth.
+  const auto ranges = castScan(with_people, Pose2D(3.0, 0.5, M_PI / 2), 0.0, 0.0, 1, 8.0);
+  EXPECT_NEAR(ranges[0], 1.5 - 0.15, 1e-6);
+
+  auto expectRefused = [&](const std::string& extra, const std::string& needle) {
+    const auto bad = write(extra);
+    ASSERT_FALSE(bad.isOk()) << extra;
+    EXPECT_NE(bad.status().message().find(needle), std::string::npos) << bad.status().message();
+  };
+  const std::string body = ", height: 1.7, texture: t.png, texture_size: [0.5, 1.7]}\n";
+  expectRefused("people:\n  - {name: statue, path: [[1, 1], [1, 1]]" + body, "people[0] (statue): path of zero length");
+  expectRefused("people:\n  - {name: ghost, path: [[1, 1]]" + body, "people[0] (ghost): path needs at least two points");
+  expectRefused("people:\n  - {path: [[1, .nan], [2, 1]]" + body, "people[0].path[0][1]");
+  expectRefused("people:\n  - {name: runner, path: [[1, 1], [2, 1]], speed: 9" + body, "people[0] (runner): speed");
+  expectRefused("people:\n  - {name: p, path: [[1, 1], [2, 1]], pause: -1" + body, "pause");
+  expectRefused("clutter:\n  - {name: flat, centre: [1, 1], size: [0, 1], height: 1, texture: t.png, texture_size: [1, 1]}\n",
+                "clutter[0] (flat): size");
+  expectRefused("clutter:\n  - {centre: [1, 1], size: [1, 1], height: 1, texture: none.png, texture_size: [1, 1]}\n",
+                "clutter[0].texture");
+  std::filesystem::remove_all(dir);
+}
+
+// People let a robot pass: a person walking towards a robot standing on their path stops at the
+// yield distance and walks on once it has gone; one who would pass beside it (outside the yield
+// width) never waits, nor does someone crossing in front of a robot that waits for them.
+TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
+  Person walker;
+  walker.name = "walker";
+  walker.path = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 0.0)};
+  walker.speed = 1.0;
+  const double dt = 0.01;
+  Crowd crowd({walker}, 1.0, 0.55);
+  int i = 0;
+  for (; i < 500; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
+  EXPECT_NEAR(crowd.poses()[0].x, 2.0, 0.011);  // stood 1 m before the robot
+  EXPECT_NEAR(crowd.yieldedSeconds(0), 3.0, 0.02);
+  for (; i < 700; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 5.0));  // the robot went
+  EXPECT_NEAR(crowd.poses()[0].x, 4.0, 0.011);
+  // Passing 0.7 m beside the robot: walks on.
+  Crowd passer({walker}, 1.0, 0.55);
+  for (int k = 0; k < 500; ++k) passer.advance(k * dt, dt, Eigen::Vector2d(3.0, 0.7));
+  EXPECT_NEAR(passer.yieldedSeconds(0), 0.0, 1e-12);
+  EXPECT_NEAR(passer.poses()[0].x, 5.0, 0.011);
+  // Crossing in front of a robot that waits for them (they are in its way, 0.63 m ahead of it and
+  // 0.6 m beside their own way): they walk on out of its way instead of both waiting for ever.
+  Person crossing = walker;
+  crossing.path = {Eigen::Vector2d(3.0, 0.1), Eigen::Vector2d(3.0, -2.0)};
+  Crowd crosser({crossing}, 1.0, 0.55);
+  for (int k = 0; k < 200; ++k) crosser.advance(k * dt, dt, Eigen::Vector2d(2.4, -0.1));
+  EXPECT_NEAR(crosser.poses()[0].y, 0.1 - 2.0, 1e-6);
+  EXPECT_NEAR(crosser.yieldedSeconds(0), 0.0, 1e-12);
+}
+
+// A box lower than the camera is a partial occluder: the camera sees over it to the wall behind,
+// and the box hides the wall's lower part; a box taller than the camera hides the wall's middle.
+TEST(WorldRenderer, TheCameraSeesOverALowBox) {
+  PlanarWorld world;
+  world.source = "test";
+  world.walls.push_back(makeWall({6.0, 5.0}, {6.0, -5.0}, cv::Mat(10, 10, CV_8UC3, cv::Scalar(255, 0, 0))));
+  BoxSurface low;
+  low.height = 0.5;
+  low.texture = cv::Mat(10, 10, CV_8UC3, cv::Scalar(0, 0, 255));
+  ClutterBox crate;
+  crate.centre = Eigen::Vector2d(2.0, 0.0);
+  crate.length = 0.4;
+  crate.width = 1.0;
+  crate.surface = low;
+  world.clutter.push_back(crate);
+  RenderOptions options;
+  options.camera_height = 1.0;
+  const WorldRenderer renderer(simCamera(), options);
+  cv::RNG rng(1);
+  const cv::Mat image = renderer.render(world.withClutter(), Pose2D(0.0, 0.0, 0.0), 1.0, rng);
+  // The crate's near side at 1.8 m spans heights 0..0.5 m: rows 240 + 500 * (1 - z) / 1.8, i.e.
+  // 379..518 (clipped at 479), and columns within ±0.5 m: ±139 px.
+  EXPECT_EQ(image.at<cv::Vec3b>(420, 320), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(image.at<cv::Vec3b>(240, 320), cv::Vec3b(255, 0, 0));  // over it: the far wall
+  EXPECT_EQ(image.at<cv::Vec3b>(300, 320), cv::Vec3b(255, 0, 0));  // the wall at 6 m, down to row 323
+  EXPECT_EQ(image.at<cv::Vec3b>(420, 320 + 200), world.floor_colour);  // beside the crate: floor
+  // Just above the near side's top edge the ray comes down onto the crate's top (flat grey).
+  EXPECT_EQ(image.at<cv::Vec3b>(375, 320), cv::Vec3b(128, 128, 128));
+  // A tall box hides the wall's middle.
+  world.clutter[0].surface.height = 2.5;
+  const cv::Mat tall = renderer.render(world.withClutter(), Pose2D(0.0, 0.0, 0.0), 1.0, rng);
+  EXPECT_EQ(tall.at<cv::Vec3b>(240, 320), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(tall.at<cv::Vec3b>(240, 320 + 200), cv::Vec3b(255, 0, 0));
+}
+
 TEST(DifferentialDrive, ExactArcsAndOdometryDrift) {
   // A full circle returns to the start.
   Pose2D pose(1.0, 2.0, 0.3);

@@ -437,3 +437,59 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   ASSERT_TRUE(d.isOk()) << d.status().toString();
   EXPECT_GT(d->covariance.trace(), 4.0 * a->covariance.trace());
 }
+
+// Routes that learn: the wall was repainted after the teach run (another texture on the same
+// plane), so no taught view matches. An experience of keyframe 2 (a view of the repainted wall near
+// it, with its estimated pose and covariance) makes that place localizable again: the pose within
+// 2 cm / 0.3°, from experience 1, with the experience's uncertainty in its covariance.
+TEST_F(RepeatLocalizerTest, AnExperienceRecognizesARepaintedPlace) {
+  test_support::SyntheticWall repainted;
+  repainted.texture = test_support::makeTexture(640, 480, 77);
+  const std::string copy = test_support::makeTemporaryDirectory("htr_experience_route");
+  std::filesystem::copy(directory_, copy, std::filesystem::copy_options::recursive |
+                                              std::filesystem::copy_options::overwrite_existing);
+  auto learned = loadRoute(copy);
+  ASSERT_TRUE(learned.isOk()) << learned.status().toString();
+  const PlanarPose keyframe_camera = rep103ToCameraAxes(learned->keyframes[2].pose);
+  const PlanarPose current(keyframe_camera.x + 0.04, keyframe_camera.z + 0.05, keyframe_camera.theta + 0.02);
+  {
+    RepeatOptions options;
+    auto localizer = RepeatLocalizer::create(*learned, options);
+    ASSERT_TRUE(localizer.isOk());
+    localizer->setTrackedKeyframe(2);
+    EXPECT_FALSE(localizer->localize(repainted.imageAt(current)).isOk());  // the taught views fail
+  }
+  // The experience: the repainted wall from 3 cm beside keyframe 2, with a 1 cm / 0.2° uncertainty.
+  const PlanarPose experience_camera(keyframe_camera.x - 0.03, keyframe_camera.z, keyframe_camera.theta - 0.01);
+  const cv::Mat experience_image = repainted.imageAt(experience_camera);
+  FeatureExtractor extractor(FeatureOptions{learned->info.feature_type, 1500});
+  const auto features = extractor.extract(experience_image);
+  ASSERT_TRUE(features.isOk());
+  const Eigen::Matrix3d learned_covariance = Eigen::Vector3d(1e-4, 1e-4, std::pow(0.2 * M_PI / 180.0, 2)).asDiagonal();
+  ASSERT_TRUE(addExperience(*learned, 2, experience_image, *features, basePose(experience_camera), learned_covariance, 50.0)
+                  .isOk());
+  const auto reloaded = loadRoute(copy);
+  ASSERT_TRUE(reloaded.isOk()) << reloaded.status().toString();
+  ASSERT_EQ(reloaded->keyframes[2].experiences.size(), 1u);
+  RepeatOptions options;
+  auto localizer = RepeatLocalizer::create(*reloaded, options);
+  ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
+  EXPECT_EQ(localizer->experienceCount(), 1);
+  localizer->setTrackedKeyframe(2);
+  const auto estimate = localizer->localize(repainted.imageAt(current));
+  ASSERT_TRUE(estimate.isOk()) << estimate.status().toString();
+  EXPECT_EQ(estimate->keyframe, 2);
+  EXPECT_EQ(estimate->experience, 1);
+  const Pose2D truth = basePose(current);
+  EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.02);
+  EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.02);
+  EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.3 * M_PI / 180.0);
+  EXPECT_GE(estimate->covariance(0, 0) + estimate->covariance(1, 1), 2e-4);  // the experience's part
+  // Without experiences (use_experiences false) the place stays unrecognized.
+  options.use_experiences = false;
+  auto blind = RepeatLocalizer::create(*reloaded, options);
+  ASSERT_TRUE(blind.isOk());
+  blind->setTrackedKeyframe(2);
+  EXPECT_FALSE(blind->localize(repainted.imageAt(current)).isOk());
+  std::filesystem::remove_all(copy);
+}

@@ -160,7 +160,7 @@ TEST(Route, CorruptOrMissingFilesNameTheFile) {
       << truncated.status().message();
   // Unknown version.
   std::string newer = *index;
-  newer.replace(newer.find("format_version: 1"), 17, "format_version: 7");
+  newer.replace(newer.find("format_version: 2"), 17, "format_version: 7");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", newer).isOk());
   auto version = loadRoute(dir);
   EXPECT_NE(version.status().message().find("unknown format_version 7"), std::string::npos);
@@ -282,4 +282,75 @@ TEST(Route, KeepsTheLevellingOfATiltedMount) {
   const auto bad = loadRoute(dir);
   ASSERT_FALSE(bad.isOk());
   EXPECT_NE(bad.status().message().find("camera_to_level"), std::string::npos) << bad.status().message();
+}
+
+// Version 1 (before experiences) is read as it is and rewritten as version 2 by migrateRoute,
+// keyframes unchanged; experiences in a version-1 index are refused naming the field.
+TEST(Route, MigratesAVersionOneRoute) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 3);
+  auto index = readWholeFile(dir + "/route.yaml");
+  ASSERT_TRUE(index.isOk());
+  std::string old = *index;
+  old.replace(old.find("format_version: 2"), 17, "format_version: 1");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", old).isOk());
+  const auto v1 = loadRoute(dir);
+  ASSERT_TRUE(v1.isOk()) << v1.status().toString();
+  EXPECT_EQ(v1->loaded_format_version, 1);
+  ASSERT_TRUE(migrateRoute(dir).isOk());
+  const auto v2 = loadRoute(dir);
+  ASSERT_TRUE(v2.isOk()) << v2.status().toString();
+  EXPECT_EQ(v2->loaded_format_version, 2);
+  ASSERT_EQ(v2->keyframes.size(), 3u);
+  EXPECT_DOUBLE_EQ(v2->keyframes[2].pose.x, v1->keyframes[2].pose.x);
+  EXPECT_EQ(v2->keyframes[1].features_file, v1->keyframes[1].features_file);
+  EXPECT_FALSE(migrateRoute(dir + "/nowhere").isOk());
+}
+
+// Experiences: written file by file then the index (each atomically), read back with their pose
+// and covariance; at most max_experiences per keyframe (the oldest dropped and its files removed);
+// bad input refused; a missing experience file or a NaN in an index named on load.
+TEST(Route, ExperiencesAreKeptBoundedAndValidated) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 3);
+  auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk());
+  Eigen::Matrix3d covariance = Eigen::Vector3d(4e-4, 9e-4, 1e-5).asDiagonal();
+  covariance(0, 1) = covariance(1, 0) = 1e-4;
+  for (int e = 0; e < 4; ++e) {
+    ASSERT_TRUE(addExperience(*route, 1, image(100 + e), features(8), Pose2D(1.0 + 0.01 * e, 0.5, 0.1), covariance,
+                              200.0 + e, 3)
+                    .isOk());
+  }
+  const auto reloaded = loadRoute(dir);
+  ASSERT_TRUE(reloaded.isOk()) << reloaded.status().toString();
+  const auto& experiences = reloaded->keyframes[1].experiences;
+  ASSERT_EQ(experiences.size(), 3u);
+  EXPECT_EQ(experiences.front().id, 2);
+  EXPECT_EQ(experiences.back().id, 4);
+  EXPECT_DOUBLE_EQ(experiences.back().pose.x, 1.03);
+  EXPECT_DOUBLE_EQ(experiences.back().stamp, 203.0);
+  EXPECT_TRUE(experiences.back().pose_covariance.isApprox(covariance));
+  EXPECT_TRUE(reloaded->keyframes[0].experiences.empty());
+  EXPECT_FALSE(std::filesystem::exists(dir + "/keyframes/000001.e1.png"));  // dropped with its files
+  EXPECT_FALSE(std::filesystem::exists(dir + "/keyframes/000001.e1.features.yml"));
+  const auto f = loadExperienceFeatures(*reloaded, 1, 2);
+  ASSERT_TRUE(f.isOk()) << f.status().toString();
+  EXPECT_EQ(f->keypoints.size(), 8u);
+  EXPECT_FALSE(loadExperienceFeatures(*reloaded, 1, 3).isOk());
+
+  Route r = *reloaded;
+  Eigen::Matrix3d nan = covariance;
+  nan(2, 2) = std::nan("");
+  EXPECT_FALSE(addExperience(r, 1, image(1), features(8), Pose2D(1, 0.5, 0.1), nan, 1.0).isOk());
+  EXPECT_FALSE(addExperience(r, 9, image(1), features(8), Pose2D(1, 0.5, 0.1), covariance, 1.0).isOk());
+  EXPECT_FALSE(addExperience(r, 1, cv::Mat(), features(8), Pose2D(1, 0.5, 0.1), covariance, 1.0).isOk());
+  ImageFeatures sift = features(8);
+  sift.type = FeatureType::kSift;
+  EXPECT_FALSE(addExperience(r, 1, image(1), sift, Pose2D(1, 0.5, 0.1), covariance, 1.0).isOk());
+
+  ASSERT_EQ(::unlink((dir + "/keyframes/000001.e3.features.yml").c_str()), 0);
+  const auto lost = loadRoute(dir);
+  ASSERT_FALSE(lost.isOk());
+  EXPECT_NE(lost.status().message().find("000001.e3.features.yml"), std::string::npos) << lost.status().message();
 }

@@ -64,6 +64,10 @@ class PotentialFieldController {
   // stays continuous with step(). kInvalidInput (state reset to rest) on a non-finite input.
   Expected<VelocityCommand> track(double linear, double angular, double dt);
 
+  // Caps the forward velocity at `max_linear` [m/s, >= 0] at once (something in the way: a
+  // safety limit, not bound by the deceleration limit), keeping the state continuous.
+  VelocityCommand capLinearVelocity(double max_linear);
+
   // Back to rest (v = w = 0), e.g. when localization is lost.
   void reset() { state_ = VelocityCommand(); }
   const VelocityCommand& state() const { return state_; }

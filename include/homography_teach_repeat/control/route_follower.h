@@ -90,6 +90,16 @@ struct RouteFollowerOptions {
   double lost_search_delay = 1.0;
   double lost_search_angle = 0.6;
   double lost_search_velocity = 0.3;
+  // Something in the way (a person, a box; the obstacle points of update()): in the corridor
+  // ahead of the base as wide as 2 robot_radius [m, > 0], the forward velocity is capped at
+  // max_linear_velocity · (gap − obstacle_stop_gap) / (obstacle_slow_gap − obstacle_stop_gap),
+  // clamped to [0, 1], where gap is the free distance in front of the robot's radius [m]: the robot
+  // slows down, stops obstacle_stop_gap [m, >= 0] short of it and waits (turning is still allowed),
+  // and drives on once it has gone. obstacle_slow_gap [m] > obstacle_stop_gap; robot_radius 0:
+  // off. The repulsion of eq. (3) still acts besides.
+  double robot_radius = 0.3;
+  double obstacle_stop_gap = 0.25;
+  double obstacle_slow_gap = 0.8;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -140,7 +150,9 @@ class RouteFollower {
  private:
   FollowOutput stop(FollowState state, const std::string& reason);  // zero command, controller at rest
   FollowOutput report(FollowState state, const std::string& reason) const;  // the output without a command
-  FollowOutput following(const VelocityCommand& command, double distance) const;
+  FollowOutput following(const VelocityCommand& command, double distance, const std::string& reason = "") const;
+  // The forward velocity cap for the obstacle points in the corridor ahead (robot_radius), and why.
+  double obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, std::string* reason) const;
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
   int lapOf(std::size_t position) const;

@@ -6,6 +6,8 @@
 // Publishes:  ~pose (PoseWithCovarianceStamped, map_frame), ~heading_correction, ~integrity,
 //             ~route_markers (latched), ~debug_image (while subscribed), /diagnostics,
 //             tf map_frame -> odom_frame (publish_tf).
+// Services:   ~save_experiences (std_srvs/Trigger; with learn_experiences): adds the views learned
+//             so far to the route (also done when the node shuts down).
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -29,6 +31,7 @@
 
 #include "homography_teach_repeat/RepeatConfig.h"
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
+#include "homography_teach_repeat/teach_repeat/experience_learning.h"
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
 #include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
 
@@ -38,6 +41,8 @@ class RepeatNode {
  public:
   // Throws std::runtime_error naming the parameter or the route file on any problem.
   RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh);
+  // With learn_experiences: what the run learned is added to the route.
+  ~RepeatNode();
 
  private:
   void onImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& camera_info);
@@ -55,6 +60,9 @@ class RepeatNode {
   // Once, at the first image: the camera's tilt in tf against the levelling the route was taught
   // with (docs/math.md §1.10). A difference is a warning (log + diagnostics), not an error.
   void checkCameraMount(const std::string& camera_frame);
+  // Routes that learn (experience_learning.h): the candidates into the route; mutex_ held. The
+  // outcome as a sentence for the log and the service.
+  std::string saveExperiences(bool* ok);
 
   ros::NodeHandle nh_, private_nh_;
   std::string map_frame_, odom_frame_;
@@ -64,6 +72,11 @@ class RepeatNode {
 
   std::mutex mutex_;
   std::optional<RepeatPipeline> pipeline_;
+  std::optional<Route> route_;                    // the route as loaded (learning writes into it)
+  std::optional<ExperienceRecorder> recorder_;    // learn_experiences
+  std::optional<FeatureExtractor> experience_extractor_;
+  int experiences_saved_ = 0;
+  ros::ServiceServer save_experiences_service_;
   FrameTimingWindow timing_;
   int marked_keyframe_ = -1;
   int debug_keyframe_ = -1;

@@ -23,6 +23,26 @@
 //                                    # chooses variant k (PlanarWorld::withAppearance, sim
 //                                    # parameter appearance_variant): the k-th of this list, and
 //                                    # the texture itself on walls with fewer variants
+//   clutter:                         # optional: textured boxes standing off the walls (crates,
+//     - name: crates                 # pillars, shelves; a low one is a partial occluder the
+//       centre: [x, y]               # camera sees over), shown only where the simulator's
+//       size: [length, width]        # parameter `clutter` is true (things moved in after the
+//       yaw: 0.0                     # teach run); size [m] > 0 along and across yaw [rad]
+//       height: 0.5                  # [m] > 0
+//       texture: fruits.jpg
+//       texture_size: [w, h]
+//   people:                          # optional: people walking a path back and forth at walking
+//     - name: visitor                # speed, seen by the camera and the laser where the
+//       path: [[x, y], [x, y], ...]  # simulator's `people` is true; the path has a length > 0
+//       speed: 1.2                   # [m/s] in (0, 3]
+//       pause: [1.0, 8.0]            # [s] >= 0 standing at the path's first and last point
+//       start_time: 20.0             # [simulated s] >= 0: stands at the first point until then
+//       size: [0.3, 0.5]             # [m] > 0 footprint along and across the walking direction
+//       height: 1.75                 # [m] > 0
+//       texture: person.jpg
+//       texture_size: [w, h]
+// Clutter and people are boxes whose four sides are walls (`see_over`: a ray passing above one
+// goes on to what is behind it); docs/simulator.md "Clutter and people".
 #pragma once
 
 #include <Eigen/Core>
@@ -48,9 +68,61 @@ struct Wall {
   double texture_height = 1.0;  // [m] of one texture copy up the wall
   std::vector<cv::Mat> variants;  // BGR8: the wall's other appearances (`variants` of the file)
   std::vector<std::string> variant_paths;
+  // A side of an object standing in the room (clutter, a person): a ray above its top goes on to
+  // what is behind it. The room's walls reach the ceiling: above them the ceiling is seen.
+  bool see_over = false;
 
   double length() const { return (end - start).norm(); }
 };
+
+// The look of a box's sides: one texture tiled around it from a corner and up from the floor.
+struct BoxSurface {
+  double height = 1.0;  // [m] > 0
+  cv::Mat texture;      // BGR8
+  std::string texture_path;
+  double texture_width = 1.0;   // [m]
+  double texture_height = 1.0;  // [m]
+};
+
+// A textured box standing on the floor (clutter): its footprint is `length` along `yaw` and
+// `width` across, centred on `centre`.
+struct ClutterBox {
+  std::string name;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double length = 0.5;  // [m] > 0
+  double width = 0.5;   // [m] > 0
+  double yaw = 0.0;     // [rad]
+  BoxSurface surface;
+};
+
+// A person walking `path` from its first point to its last and back, again and again, at `speed`,
+// standing `pause_at_start` / `pause_at_end` seconds at the ends, and standing at the first point
+// until `start_time`. Body: a box of `depth` along the walking direction and `width` across.
+struct Person {
+  std::string name;
+  std::vector<Eigen::Vector2d> path;
+  double speed = 1.2;           // [m/s]
+  double pause_at_start = 0.0;  // [s]
+  double pause_at_end = 0.0;    // [s]
+  double start_time = 0.0;      // [simulated s]
+  double depth = 0.3;           // [m]
+  double width = 0.5;           // [m]
+  BoxSurface surface;
+
+  double pathLength() const;
+  // Where the person stands at simulated time `time` [s] (x, y) and which way they face (yaw:
+  // the direction of the leg they are on, or last walked).
+  Pose2D poseAt(double time) const;
+};
+
+// Distance [m] from `point` to the footprint of a box centred at (pose.x, pose.y), `length` along
+// pose.yaw and `width` across (0 inside): how close a robot came to a person or a crate.
+double distanceToBox(const Eigen::Vector2d& point, const Pose2D& pose, double length, double width);
+
+// The four sides of a box with footprint centre `centre`, `length` along `yaw`, `width` across, as
+// walls listed counter-clockwise seen from above (each texture reads left to right from outside).
+std::vector<Wall> boxWalls(const std::string& name, const Eigen::Vector2d& centre, double length, double width,
+                           double yaw, const BoxSurface& surface);
 
 struct Illumination {
   double amplitude = 0.0;  // relative gain change, [0, 1)
@@ -71,6 +143,8 @@ struct CoveredRegion {
 struct PlanarWorld {
   std::vector<Wall> walls;
   std::vector<CoveredRegion> camera_covered;
+  std::vector<ClutterBox> clutter;  // not in `walls` until withClutter()
+  std::vector<Person> people;       // not in `walls`: withPeopleAt(time)
   cv::Vec3b floor_colour{70, 70, 70};
   cv::Vec3b ceiling_colour{200, 200, 200};
   Illumination illumination;
@@ -85,6 +159,36 @@ struct PlanarWorld {
   // The world with appearance `variant` (0: as taught; k > 0: every wall with at least k variants
   // shows its k-th). kInvalidInput for a negative variant or one that no wall has.
   Expected<PlanarWorld> withAppearance(int variant) const;
+  // The world with its clutter standing in it (the boxes' sides added to `walls`).
+  PlanarWorld withClutter() const;
+  // The world at simulated time `time`: every person's body added to `walls` where they stand.
+  PlanarWorld withPeopleAt(double time) const;
+  // The world with person i's body at poses[i] (a Crowd's poses()).
+  PlanarWorld withPeople(const std::vector<Pose2D>& poses) const;
+};
+
+// People who do not walk into a robot: each person follows Person::poseAt on a clock of their own,
+// which runs with simulated time except while the robot's centre is in their lane ahead of them
+// (within `yield_distance` [m] along the way they walk and `yield_width` [m] across it): then they
+// stand and let it pass, as people do. Someone who would pass beside the robot walks on; the robot
+// still has to stop for someone standing in its way.
+class Crowd {
+ public:
+  Crowd(std::vector<Person> people, double yield_distance, double yield_width);
+  // From `time` to `time + dt` [simulated s], the robot's centre at `robot`.
+  void advance(double time, double dt, const Eigen::Vector2d& robot);
+  std::vector<Pose2D> poses() const;
+  const std::vector<Person>& people() const { return people_; }
+  // [s] how long person i has stood for the robot so far.
+  double yieldedSeconds(std::size_t i) const { return yielded_.at(i); }
+
+ private:
+  std::vector<Person> people_;
+  std::vector<double> clocks_;
+  std::vector<double> yielded_;
+  double yield_distance_;
+  double yield_width_;
+  bool started_ = false;
 };
 
 // Loads and validates a world file. Status kInvalidInput naming the file and the field (a missing

@@ -33,6 +33,7 @@ struct KeyframeReference {
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
+  int experience = 0;                  // 0: a taught view; k > 0: the keyframe's experience k
 };
 
 // Whether the teach run turned between two keyframes: their yaws differ by more than 0.1 rad +
@@ -50,6 +51,13 @@ class KeyframeStore {
 
   int size() const { return static_cast<int>(keyframes_.size()); }
   const KeyframeReference& at(int keyframe) const { return keyframes_[static_cast<std::size_t>(keyframe)]; }
+  // The learned views of keyframe k (RouteExperience), newest first; each with its estimated pose
+  // and covariance and the keyframe's plane carried into its camera frame (fast_hd/classic with
+  // RepeatOptions::use_experiences; empty otherwise).
+  const std::vector<KeyframeReference>& experiences(int keyframe) const {
+    return experiences_[static_cast<std::size_t>(keyframe)];
+  }
+  int experienceCount() const;
   std::vector<Pose2D> poses() const;
 
  private:
@@ -65,7 +73,11 @@ class KeyframeStore {
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
   void triangulateLines(const PinholeCamera& camera, const CameraMount& mount, const LineLandmarkOptions& options);
 
+  // Loads each keyframe's experiences (after the keyframes' planes are final).
+  Status loadExperiences(const Route& route, const CameraMount& mount);
+
   std::vector<KeyframeReference> keyframes_;
+  std::vector<std::vector<KeyframeReference>> experiences_;
 };
 
 }  // namespace homography_teach_repeat

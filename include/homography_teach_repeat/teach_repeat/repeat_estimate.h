@@ -95,6 +95,10 @@ struct RepeatOptions {
   // Forward-backward check of a tracked point [px]: tracked back into the previous frame it must
   // land within this distance of where it started.
   double tracking_tolerance_px = 0.5;
+  // fast_hd/classic: where a keyframe's taught view fails (or gives a pose the caller's check
+  // refuses), its experiences (other views of the place learned by earlier repeat runs, route
+  // format 2, docs/route_format.md) are tried, newest first.
+  bool use_experiences = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -104,6 +108,7 @@ struct RepeatEstimate {
   int keyframe = -1;      // reference keyframe; for a degraded estimate, the keyframe the
                           // temporary reference was localized against
   bool degraded = false;  // localized against the temporary reference
+  int experience = 0;     // 0: the keyframe's taught view; k > 0: its experience of id k
   int matches = 0;        // tentative matches (features or lines)
   int inliers = 0;
   // The matches came from the previous frame's inliers by optical flow (RepeatOptions::

@@ -7,6 +7,8 @@
 //    or the caller's check (the odometry gate) would refuse its pose: a wrong pose from one
 //    keyframe (its plane a poor model of this view) must not hide a right one from the next;
 //    tracking moves on when the robot is closer to the next keyframe than to the current one;
+//  - each candidate keyframe: its taught view, then, when that fails or its pose is refused, its
+//    experiences (views learned by earlier repeat runs, newest first; experience_learning.h);
 //  - lost tracking (every candidate fails): the last good current image becomes a temporary
 //    reference (paper 000's outdoor experiment) and estimates are flagged `degraded`; after
 //    `max_degraded_frames` such frames, or when that fails too, localization reports failure;
@@ -69,6 +71,7 @@ class RepeatLocalizer {
   int trackedKeyframe() const { return selector_.tracked(); }
   bool closedRoute() const { return selector_.closedRoute(); }
   int keyframeCount() const { return keyframes_.size(); }
+  int experienceCount() const { return keyframes_.experienceCount(); }
   // mu mode: whether keyframe k was reached turning (gives no heading fix, see
   // RepeatOptions::mu_skip_turn_keyframes). The first keyframe never is: the run starts there.
   bool isTurnKeyframe(int keyframe) const;

@@ -5,8 +5,9 @@
 // Every file is written atomically (atomic_file.h) and the index last, so a crash while teaching
 // loses at most the keyframe being written: the index only ever lists complete keyframes.
 //
-// route.yaml (format_version 1):
-//   format_version: 1
+// route.yaml (format_version 2; version 1, without experiences, is read as well and rewritten as 2
+// by migrateRoute or the next write):
+//   format_version: 2
 //   feature_type: sift | orb | akaze | surf
 //   camera: {width, height, fx, fy, cx, cy, distortion_model, distortion: [..]}
 //   camera_mount: {x, y, yaw}            # camera optical centre in base_link [m, rad]
@@ -14,7 +15,12 @@
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
-//        plane: {normal: [nx, ny, nz], distance: d}}      # optional, in the keyframe camera frame
+//        plane: {normal: [nx, ny, nz], distance: d},      # optional, in the keyframe camera frame
+//        experiences:                                     # optional: other views of this place
+//          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
+//             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
+//             image: keyframes/NNNNNN.e1.png,             # it, with its covariance (x, y, yaw,
+//             features: keyframes/NNNNNN.e1.features.yml}] # row-major)
 // Loading validates everything and names the file and the problem on any error.
 #pragma once
 
@@ -33,7 +39,19 @@
 
 namespace homography_teach_repeat {
 
-constexpr int kRouteFormatVersion = 1;
+constexpr int kRouteFormatVersion = 2;
+
+// Another view of a keyframe's place, learned by a repeat run where the taught view matched weakly
+// (changed appearance: a poster replaced, other light). Localized against like the keyframe, with
+// its estimated pose and that pose's uncertainty (docs/route_format.md, "Experiences").
+struct RouteExperience {
+  int id = 1;          // 1, 2, ... within its keyframe (the file names')
+  double stamp = 0.0;  // [s] of the repeat frame
+  Pose2D pose;         // base_link in the route frame, as the repeat estimated it
+  Eigen::Matrix3d pose_covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw)
+  std::string image_file;     // relative to the route directory
+  std::string features_file;
+};
 
 struct RouteKeyframe {
   int index = 0;
@@ -43,6 +61,7 @@ struct RouteKeyframe {
   std::string features_file;
   std::string lines_file;
   std::optional<ScenePlane> plane;  // dominant plane in this keyframe's camera frame
+  std::vector<RouteExperience> experiences;
 };
 
 struct RouteInfo {
@@ -56,7 +75,25 @@ struct Route {
   std::string directory;
   RouteInfo info;
   std::vector<RouteKeyframe> keyframes;
+  int loaded_format_version = kRouteFormatVersion;  // as found on disk (1: not yet migrated)
 };
+
+// Writes route.yaml (format_version 2) atomically from `route`.
+Status writeRouteIndex(const Route& route);
+
+// Rewrites a route's index in the current format (a version-1 route becomes version 2: the same
+// keyframes, no experiences). Atomic; the keyframe files are untouched. kInvalidInput naming the
+// file when the route cannot be read or written.
+Status migrateRoute(const std::string& directory);
+
+// Adds a learned view to keyframe `keyframe` of `route` (loaded from its directory): writes its
+// image and features, then the index, each atomically. When the keyframe already has
+// `max_experiences` (>= 1), the oldest is dropped (its files removed after the index no longer
+// lists them). kInvalidInput on an empty image, a non-finite pose, stamp or covariance, a keyframe
+// out of range, or a write failure (the index then lists only complete experiences).
+Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, const ImageFeatures& features,
+                     const Pose2D& pose, const Eigen::Matrix3d& pose_covariance, double stamp,
+                     int max_experiences = 3);
 
 // Appends keyframes to a new route directory.
 class RouteWriter {
@@ -100,5 +137,6 @@ Expected<Route> loadRoute(const std::string& directory);
 Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe);
 Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe);
 Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe);
+Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience);
 
 }  // namespace homography_teach_repeat

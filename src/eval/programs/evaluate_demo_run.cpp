@@ -11,7 +11,8 @@
 // route_distance_m: laps × the taught path; straight_speed_mps: the mean ground-truth speed while
 // turning slower than 0.1 rad/s, from the robot's first move to its last (stops on a straight
 // count: a robot that crawls or halts there is slow); min_wall_clearance_m: the closest the base
-// came to a wall. Exit code 3 when the run did not finish (metrics and
+// came to a wall (with --clutter 1: or to the world's clutter); min_person_clearance_m: to a
+// person's body (the `people` markers in the bag; null without). Exit code 3 when the run did not finish (metrics and
 // plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
 // must end at (a loop: its first keyframe, where the robot started; an open route: its last);
 // max/mean/final_path: distance to the polyline through the taught keyframes. And
@@ -32,6 +33,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <std_msgs/String.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -71,7 +73,32 @@ struct Run {
   std::vector<StampedEstimate> estimates;  // repeat_node/pose
   std::map<double, int> integrity;         // repeat_node/integrity: level by stamp
   std::string last_state;
+  // planar_world_sim's `people` markers: per stamp, each body's pose and footprint (depth, width).
+  struct Body {
+    htr::Pose2D pose;
+    double depth, width;
+  };
+  std::map<double, std::vector<Body>> people;
 };
+
+// The closest the base came to a person: each ground-truth sample against the bodies of the
+// nearest `people` message in time (10 Hz; a walker moves 0.12 m between two). null without people.
+nlohmann::json minPersonClearance(const Run& run) {
+  if (run.people.empty()) return nullptr;
+  double clearance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < run.truth.size(); ++i) {
+    auto after = run.people.lower_bound(run.truth_stamps[i]);
+    if (after == run.people.end() || (after != run.people.begin() &&
+                                      run.truth_stamps[i] - std::prev(after)->first < after->first - run.truth_stamps[i])) {
+      after = std::prev(after);
+    }
+    for (const Run::Body& body : after->second) {
+      clearance = std::min(clearance, htr::distanceToBox(Eigen::Vector2d(run.truth[i].x, run.truth[i].y), body.pose,
+                                                         body.depth, body.width));
+    }
+  }
+  return clearance;
+}
 
 
 // Mean speed over the straight legs (turning slower than 0.1 rad/s) between the first and the last
@@ -121,7 +148,7 @@ Run readRun(const std::string& path) {
   rosbag::Bag bag(path, rosbag::bagmode::Read);
   rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
                                              "/controller_node/state", "repeat_node/pose", "/repeat_node/pose",
-                                             "repeat_node/integrity", "/repeat_node/integrity"}));
+                                             "repeat_node/integrity", "/repeat_node/integrity", "people", "/people"}));
   for (const rosbag::MessageInstance& m : view) {
     if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
       // A message that is not a planar pose (NaN, non-unit quaternion) is left out.
@@ -131,6 +158,16 @@ Run readRun(const std::string& path) {
       run.truth_stamps.push_back(odom->header.stamp.toSec());
     } else if (const auto integrity = m.instantiate<htr::Integrity>()) {
       run.integrity[integrity->header.stamp.toSec()] = integrity->level;
+    } else if (const auto markers = m.instantiate<visualization_msgs::MarkerArray>()) {
+      std::vector<Run::Body> bodies;
+      double stamp = 0.0;
+      for (const auto& marker : markers->markers) {
+        const auto pose = htr::ros_conversions::toPose2D(marker.pose);
+        if (!pose) continue;
+        bodies.push_back({*pose, marker.scale.x, marker.scale.y});
+        stamp = marker.header.stamp.toSec();
+      }
+      if (!bodies.empty()) run.people[stamp] = std::move(bodies);
     } else if (const auto state = m.instantiate<std_msgs::String>()) {
       run.last_state = state->data;
     } else if (const auto pose = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
@@ -223,6 +260,16 @@ void writeTrajectory(const std::filesystem::path& file, const htr::PlanarWorld& 
   t["walls"] = nlohmann::json::array();
   for (const auto& w : world.walls) t["walls"].push_back({{w.start.x(), w.start.y()}, {w.end.x(), w.end.y()}});
   t["taught_path"] = xyEvery(path, {}, 0.0);
+  // Where the people walked (one track each, from the `people` markers).
+  t["people"] = nlohmann::json::array();
+  for (const auto& [stamp, bodies] : run.people) {
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      if (t["people"].size() <= i) t["people"].push_back(nlohmann::json::array());
+      auto& track = t["people"][i];
+      const nlohmann::json xy = {bodies[i].pose.x, bodies[i].pose.y};
+      if (track.empty() || track.back() != xy) track.push_back(xy);
+    }
+  }
   constexpr double kPeriod = 0.05;  // [s]
   t["repeated"] = xyEvery(run.truth, run.truth_stamps, kPeriod);
   t["odometry_only"] = xyEvery(baseline.truth, baseline.truth_stamps, kPeriod);
@@ -244,16 +291,17 @@ void writeTrajectory(const std::filesystem::path& file, const htr::PlanarWorld& 
 int main(int argc, char** argv) {
   htr::cli::Arguments args("evaluate_demo_run",
                             {{"world", ""}, {"route", ""}, {"bag", ""}, {"baseline-bag", ""}, {"laps", "1"},
-                             {"mode", "fast_hd"}, {"out", ""}},
+                             {"mode", "fast_hd"}, {"clutter", "0"}, {"out", ""}},
                             "--world W.yaml --route DIR --bag RUN.bag [--baseline-bag ODOM.bag] [--laps N] "
-                            "[--mode M] --out DIR");
+                            "[--mode M] [--clutter 0|1] --out DIR");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "bag", "out"}) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
   }
   try {
-    const auto world = htr::loadPlanarWorld(args.text("world"));
+    auto world = htr::loadPlanarWorld(args.text("world"));
     if (!world) throw std::runtime_error(world.status().message());
+    if (args.integer("clutter") != 0) *world = world->withClutter();  // the repeat ran among it
     const auto route = htr::loadRoute(args.text("route"));
     if (!route) throw std::runtime_error(route.status().message());
     std::vector<htr::Pose2D> path;
@@ -296,6 +344,7 @@ int main(int argc, char** argv) {
     metrics["distance_travelled_m"] = travelled;
     metrics["straight_speed_mps"] = straightLegSpeed(run);
     metrics["min_wall_clearance_m"] = minWallClearance(*world, run.truth);
+    metrics["min_person_clearance_m"] = minPersonClearance(run);
     metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));
     metrics["localization"] = scoreLocalization(run);
     if (!baseline.truth.empty()) {

@@ -2,6 +2,8 @@
 // one line per keyframe (what fast_hd and mu have there, the predicted fix, aliasing, weaknesses),
 // writes OUT/route_audit.json and draws OUT/route_audit.png (top view coloured by the predicted
 // position uncertainty, weak keyframes marked; per-keyframe figures along the route).
+// `route_info --migrate DIR` rewrites a route's index in the current format (a version-1 route
+// becomes version 2, docs/route_format.md).
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -56,8 +58,9 @@ int main(int argc, char** argv) {
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
        {"heading-sigma", "0"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
-       {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}},
+       {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
+      "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
       "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
@@ -66,6 +69,17 @@ int main(int argc, char** argv) {
       "  [--min-lines N] (what makes a keyframe weak)\n"
       "  [--plots 0|1]");
   args.parse(argc, argv);
+  if (!args.text("migrate").empty()) {
+    const auto before = loadRoute(args.text("migrate"));
+    const Status migrated = migrateRoute(args.text("migrate"));
+    if (!migrated.isOk()) {
+      std::cerr << "route_info: " << migrated.message() << "\n";
+      return 1;
+    }
+    std::printf("route '%s': format_version %d -> %d\n", args.text("migrate").c_str(), before->loaded_format_version,
+                kRouteFormatVersion);
+    return 0;
+  }
   if (args.text("route").empty() || args.text("out").empty()) args.fail("--route DIR and --out DIR are required");
   RouteAuditOptions options;
   options.probe_offset_m = args.number("offset");

@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
       std::cerr << "planar_world_sim: " << world.status().message() << std::endl;
       return 1;
     }
-    std::cout << "world '" << argv[2] << "': " << world->walls.size() << " walls, valid" << std::endl;
+    std::cout << "world '" << argv[2] << "': " << world->walls.size() << " walls, " << world->clutter.size()
+              << " clutter boxes, " << world->people.size() << " people, valid" << std::endl;
     return 0;
   }
   ros::init(argc, argv, "planar_world_sim");

@@ -6,6 +6,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/LaserScan.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
@@ -78,6 +79,18 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
     throw std::runtime_error("parameter '" + p.resolveName("appearance_variant") + "': " + appearance.status().message());
   }
   world_ = std::move(*appearance);
+  // Things moved in after the teach run, and people walking by (docs/simulator.md).
+  if (readParameter(p, "clutter", false)) world_ = world_.withClutter();
+  world_.clutter.clear();
+  if (!readParameter(p, "people", false)) world_.people.clear();
+  // People stand rather than walk into the robot: while it is in their lane ahead (Crowd).
+  const double yield_distance = readParameter(p, "people_yield_distance", 1.0);
+  const double yield_width = readParameter(p, "people_yield_width", 0.55);
+  if (!std::isfinite(yield_distance) || yield_distance < 0.0 || !std::isfinite(yield_width) || yield_width < 0.0) {
+    throw std::runtime_error("parameters '" + p.resolveName("people_yield_distance") + "' and '" +
+                             p.resolveName("people_yield_width") + "' must be >= 0");
+  }
+  if (!world_.people.empty()) crowd_.emplace(world_.people, yield_distance, yield_width);
 
   physics_rate_ = readParameter(p, "physics_rate", physics_rate_);
   camera_rate_ = readParameter(p, "camera_rate", camera_rate_);
@@ -86,16 +99,22 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   cmd_vel_timeout_ = readParameter(p, "cmd_vel_timeout", cmd_vel_timeout_);
   camera_mount_x_ = readParameter(p, "camera_mount_x", camera_mount_x_);
   start_time_ = readParameter(p, "start_time", start_time_);
+  odometry_rate_ = readParameter(p, "odometry_rate", odometry_rate_);
+  odometry_jitter_ = readParameter(p, "odometry_jitter", odometry_jitter_);
+  if (!std::isfinite(odometry_jitter_) || odometry_jitter_ < 0.0 || odometry_jitter_ > 0.5) {
+    throw std::runtime_error("parameter '" + p.resolveName("odometry_jitter") + "' must be in [0, 0.5] s");
+  }
   for (const auto& [name, value] : {std::pair<const char*, double>{"physics_rate", physics_rate_},
                                     {"camera_rate", camera_rate_},
                                     {"scan_rate", scan_rate_},
+                                    {"odometry_rate", odometry_rate_},
                                     {"real_time_factor", real_time_factor_},
                                     {"cmd_vel_timeout", cmd_vel_timeout_},
                                     {"start_time", start_time_}}) {
     requirePositive(p, name, value);
   }
-  if (camera_rate_ > physics_rate_ || scan_rate_ > physics_rate_) {
-    throw std::runtime_error("parameters camera_rate and scan_rate must not exceed physics_rate");
+  if (camera_rate_ > physics_rate_ || scan_rate_ > physics_rate_ || odometry_rate_ > physics_rate_) {
+    throw std::runtime_error("parameters camera_rate, scan_rate and odometry_rate must not exceed physics_rate");
   }
   odom_frame_ = readParameter<std::string>(p, "odom_frame", "odom");
   base_frame_ = readParameter<std::string>(p, "base_frame", "base_link");
@@ -193,6 +212,7 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   ground_truth_publisher_ = nh_.advertise<nav_msgs::Odometry>("ground_truth", 20);
   if (scan_count_ > 0) scan_publisher_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 2);
   clock_publisher_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  if (!world_.people.empty()) people_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("people", 2);
 
   // The camera mount: optical z forward (base x), optical x right (-base y), optical y down.
   geometry_msgs::TransformStamped mount;
@@ -210,6 +230,7 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   mount.transform.rotation.z = q.z();
   mount.transform.rotation.w = q.w();
   static_broadcaster_.sendTransform(mount);
+  if (!world_.people.empty()) ROS_INFO("planar_world_sim: %zu people walking", world_.people.size());
   ROS_INFO("planar_world_sim: world '%s' (%zu walls), camera %dx%d f=%.0f at %.0f Hz, %.1fx real time",
            world_file.c_str(), world_.walls.size(), calibration.width, calibration.height, calibration.fx,
            camera_rate_, real_time_factor_);
@@ -228,7 +249,7 @@ void PlanarWorldSim::run() {
   const double dt = 1.0 / physics_rate_;
   const int camera_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / camera_rate_)));
   const int scan_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / scan_rate_)));
-  const int odometry_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / 50.0)));
+  const int odometry_every = std::max(1, static_cast<int>(std::lround(physics_rate_ / odometry_rate_)));
   double sim_seconds = start_time_;
   sim_seconds_.store(sim_seconds);
   long step = 0;
@@ -240,8 +261,10 @@ void PlanarWorldSim::run() {
     clock_publisher_.publish(clock);
     if (step % odometry_every == 0) publishState(stamp);
     if (step % camera_every == 0) publishCamera(stamp, sim_seconds);
+    deliverOdometry(sim_seconds);
     deliverImages(sim_seconds);
     if (scan_count_ > 0 && step % scan_every == 0) publishScan(stamp);
+    if (crowd_ && step % camera_every == 0) publishPeople(stamp);
     double v = 0.0, w = 0.0;
     {
       std::lock_guard<std::mutex> lock(command_mutex_);
@@ -251,6 +274,7 @@ void PlanarWorldSim::run() {
       }
     }
     robot_->step(v, w, dt);
+    if (crowd_) crowd_->advance(sim_seconds, dt, Eigen::Vector2d(robot_->truth().x, robot_->truth().y));
     if (kidnap_time_ > 0.0 && !kidnapped_ && sim_seconds >= kidnap_time_) {
       kidnapped_ = true;
       robot_->teleport(robot_->truth().compose(kidnap_offset_));
@@ -277,13 +301,64 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
   const MeasuredVelocity truth_velocity = velocityFromOdometry(previous.truth, truth, interval, OdometryErrorModel());
   truth_yaw_rate_ = truth_velocity.w;
   last_state_ = StateSample{odom, truth, stamp};
-  odometry_publisher_.publish(odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp, odom_frame_,
-                                              base_frame_, odometry_variance_floor_, kUnobservedVariance));
+  // Odometry is delivered after its jitter (tf with it); the ground truth at once.
+  const double jitter = odometry_jitter_ > 0.0 ? rng_.uniform(0.0, odometry_jitter_) : 0.0;
+  pending_odometry_.push_back(
+      PendingOdometry{stamp.toSec() + jitter, odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp,
+                                                              odom_frame_, base_frame_, odometry_variance_floor_,
+                                                              kUnobservedVariance)});
   ground_truth_publisher_.publish(odometryMessage(truth, Eigen::Matrix3d::Zero(), truth_velocity, stamp, world_frame_,
                                                   base_frame_, odometry_variance_floor_, kUnobservedVariance));
-  tf_broadcaster_.sendTransform(transformMessage(odom, 0.0, stamp, odom_frame_, base_frame_));
   tf_broadcaster_.sendTransform(
       transformMessage(truth, 0.0, stamp, world_frame_, ground_truth_prefix_ + "/" + base_frame_));
+}
+
+void PlanarWorldSim::deliverOdometry(double sim_seconds) {
+  // In stamp order, as a base driver publishes (a late message holds back the ones after it).
+  while (!pending_odometry_.empty() && pending_odometry_.front().deliver_at <= sim_seconds + 1e-9) {
+    const nav_msgs::Odometry& m = pending_odometry_.front().message;
+    odometry_publisher_.publish(m);
+    geometry_msgs::TransformStamped t;
+    t.header = m.header;
+    t.child_frame_id = m.child_frame_id;
+    t.transform.translation.x = m.pose.pose.position.x;
+    t.transform.translation.y = m.pose.pose.position.y;
+    t.transform.rotation = m.pose.pose.orientation;
+    tf_broadcaster_.sendTransform(t);
+    pending_odometry_.pop_front();
+  }
+}
+
+PlanarWorld PlanarWorldSim::scene() const { return crowd_ ? world_.withPeople(crowd_->poses()) : world_; }
+
+void PlanarWorldSim::publishPeople(const ros::Time& stamp) {
+  visualization_msgs::MarkerArray markers;
+  const std::vector<Pose2D> poses = crowd_->poses();
+  for (std::size_t i = 0; i < world_.people.size(); ++i) {
+    const Person& person = world_.people[i];
+    const Pose2D& pose = poses[i];
+    visualization_msgs::Marker m;
+    m.header.stamp = stamp;
+    m.header.frame_id = world_frame_;
+    m.ns = "people";
+    m.id = static_cast<int>(i);
+    m.type = visualization_msgs::Marker::CUBE;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.position.x = pose.x;
+    m.pose.position.y = pose.y;
+    m.pose.position.z = 0.5 * person.surface.height;
+    m.pose.orientation = ros_conversions::yawQuaternion(pose.yaw);
+    m.scale.x = person.depth;
+    m.scale.y = person.width;
+    m.scale.z = person.surface.height;
+    m.color.r = 0.9f;
+    m.color.g = 0.4f;
+    m.color.b = 0.1f;
+    m.color.a = 0.8f;
+    m.text = person.name;
+    markers.markers.push_back(m);
+  }
+  people_publisher_.publish(markers);
 }
 
 void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
@@ -299,7 +374,7 @@ void PlanarWorldSim::publishCamera(const ros::Time& stamp, double sim_seconds) {
     rng_.fill(noise, cv::RNG::UNIFORM, 0, 4);
     image += noise;
   } else {
-    image = renderer_->render(world_, camera_pose, light_level_ * world_.illumination.gainAt(sim_seconds), rng_,
+    image = renderer_->render(scene(), camera_pose, light_level_ * world_.illumination.gainAt(sim_seconds), rng_,
                               truth_yaw_rate_);
   }
   std_msgs::Header header;
@@ -332,7 +407,7 @@ void PlanarWorldSim::publishScan(const ros::Time& stamp) {
       scan_count_ > 1 ? static_cast<float>((scan_angle_max_ - scan_angle_min_) / (scan_count_ - 1)) : 0.0f;
   scan.range_min = 0.05f;
   scan.range_max = static_cast<float>(scan_range_max_);
-  scan.ranges = castScan(world_, robot_->truth(), scan_angle_min_, scan_angle_max_, scan_count_, scan_range_max_);
+  scan.ranges = castScan(scene(), robot_->truth(), scan_angle_min_, scan_angle_max_, scan_count_, scan_range_max_);
   scan_publisher_.publish(scan);
 }
 

@@ -7,13 +7,15 @@
 // Publishes:  camera/image_raw + camera/camera_info (bgr8, at camera_rate), odom
 //             (nav_msgs/Odometry with the odometry error model, frame odom -> base_link),
 //             ground_truth (nav_msgs/Odometry, frame world -> base_link), scan
-//             (sensor_msgs/LaserScan, at scan_rate, when scan_count > 0), /clock;
+//             (sensor_msgs/LaserScan, at scan_rate, when scan_count > 0), /clock, people
+//             (visualization_msgs/MarkerArray in the world frame, where `people` is on);
 //             tf odom -> base_link, base_link -> camera_optical_frame (the camera mount), and the
 //             ground truth world -> ground_truth/base_link
 // Parameters: see config/planar_world_sim.yaml
 #pragma once
 
 #include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -48,6 +50,11 @@ class PlanarWorldSim {
   void publishState(const ros::Time& stamp);
   void publishCamera(const ros::Time& stamp, double sim_seconds);
   void publishScan(const ros::Time& stamp);
+  void publishPeople(const ros::Time& stamp);
+  // The world now: the walls, the clutter if on, the people where they stand.
+  PlanarWorld scene() const;
+  // Publishes the odometry messages whose delivery time has come (jitter), oldest first.
+  void deliverOdometry(double sim_seconds);
   // Publishes the images whose delivery time has come (latency), oldest first.
   void deliverImages(double sim_seconds);
 
@@ -55,6 +62,7 @@ class PlanarWorldSim {
   ros::NodeHandle private_nh_;
   PlanarWorld world_;
   std::optional<WorldRenderer> renderer_;
+  std::optional<Crowd> crowd_;  // the world's people, when `people` is on
   std::optional<DifferentialDriveSim> robot_;
   cv::RNG rng_;
   double physics_rate_ = 100.0;
@@ -82,6 +90,15 @@ class PlanarWorldSim {
     sensor_msgs::CameraInfo info;
   };
   std::deque<PendingImage> pending_images_;
+  // Odometry at its own rate, each message (stamped when measured) delivered up to
+  // odometry_jitter_ [s] late, in order.
+  double odometry_rate_ = 50.0;
+  double odometry_jitter_ = 0.0;
+  struct PendingOdometry {
+    double deliver_at;  // [simulated s]
+    nav_msgs::Odometry message;
+  };
+  std::deque<PendingOdometry> pending_odometry_;
   sensor_msgs::CameraInfo camera_info_;  // the calibration published with every image
   double truth_yaw_rate_ = 0.0;  // [rad/s] over the last state interval (motion blur)
   int scan_count_ = 0;
@@ -110,6 +127,7 @@ class PlanarWorldSim {
   ros::Publisher ground_truth_publisher_;
   ros::Publisher scan_publisher_;
   ros::Publisher clock_publisher_;
+  ros::Publisher people_publisher_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
 };
