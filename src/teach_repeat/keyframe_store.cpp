@@ -177,7 +177,29 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;  // (hybrid: not used for poses)
-    const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(k + 1 < n ? k + 1 : k - 1)];
+    // The nearest keyframe the camera moved to (k+1, k-1, k+2, ...), within kMaxTurn of this one's
+    // heading: a turn in place maps every wall alike and cannot tell this one's plane from a side
+    // wall. The keyframe where the teach run stopped to turn has its neighbour on the leg it came
+    // along (found in the simulator: with a shelf hiding the wall ahead, the side wall's features
+    // out-voted it and the poses were 6 cm off claiming 4 mm).
+    constexpr double kMinBaseline = 0.1;  // [m] of the camera
+    constexpr double kMaxTurn = 0.5;      // [rad]
+    constexpr int kMaxSteps = 3;
+    int chosen = k + 1 < n ? k + 1 : k - 1;
+    for (int step = 1; step <= kMaxSteps; ++step) {
+      bool found = false;
+      for (const int j : {k + step, k - step}) {
+        if (j < 0 || j >= n) continue;
+        const PlanarPose motion = mount.baseToCamera(reference.base_pose.inverse().compose(keyframes_[static_cast<std::size_t>(j)].base_pose));
+        if (std::hypot(motion.x, motion.z) >= kMinBaseline && std::abs(motion.theta) <= kMaxTurn) {
+          chosen = j;
+          found = true;
+          break;
+        }
+      }
+      if (found) break;
+    }
+    const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(chosen)];
     const PlanarPose relative = mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
     Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
     const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);

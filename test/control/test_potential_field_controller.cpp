@@ -91,6 +91,27 @@ TEST(PotentialFieldController, ObstaclesPushAway) {
   EXPECT_LT(b.linear, a.linear);
 }
 
+// The repulsion is the nearest point's: a wall beside the path pushes as hard seen by a scanner of
+// 10 beams as of 1000 (summed over the beams, a person beside the path held the robot still).
+TEST(PotentialFieldController, RepulsionDoesNotGrowWithTheScanResolution) {
+  auto wall = [](int beams) {
+    std::vector<Eigen::Vector2d> points;
+    for (int i = 0; i < beams; ++i) points.emplace_back(-1.0 + 2.0 * i / (beams - 1), 0.45);  // y = 0.45, |x| <= 1
+    points.emplace_back(0.0, 0.45);
+    return points;
+  };
+  PotentialFieldController coarse{PotentialFieldParameters()}, fine{PotentialFieldParameters()};
+  for (int k = 0; k < 20; ++k) {
+    const auto a = coarse.step(2.0, 0.0, wall(10), 0.05);
+    const auto b = fine.step(2.0, 0.0, wall(1000), 0.05);
+    ASSERT_TRUE(a.isOk() && b.isOk());
+    EXPECT_NEAR(a->linear, b->linear, 1e-12);
+    EXPECT_NEAR(a->angular, b->angular, 1e-12);
+  }
+  EXPECT_GT(fine.state().linear, 0.2);  // it drives on past the wall, turning away from it
+  EXPECT_LT(fine.state().angular, 0.0);
+}
+
 TEST(PotentialFieldController, GoalTest) {
   PotentialFieldParameters p;
   EXPECT_TRUE(goalReached(Pose2D(0.5, 0.3, 0.1), Pose2D(0.0, 0.0, 0.0), p));

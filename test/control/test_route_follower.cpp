@@ -454,7 +454,7 @@ TEST(RouteFollower, WaitsForSomeoneStandingInTheWay) {
     if (standing) {
       closest = std::min(closest, person.x() - 0.15 - pose.x);
       if (t > 15.0) {
-        EXPECT_NEAR(out.command.linear, 0.0, 1e-9);
+        EXPECT_NEAR(out.command.linear, 0.0, 1e-3);  // creeping to the stop gap at most
         EXPECT_NE(out.reason.find("something in the way"), std::string::npos) << out.reason;
         waited = true;
       }

@@ -3,7 +3,7 @@
 //   ẋ = −2b [[1, 0], [0, k_i]] x + F [[1, 0], [0, k_i h]] (cosψ, sinψ)ᵀ
 // b viscous friction [1/s], k_i = m/I_zz [1/m²], h lever of the force [m], F the magnitude and ψ
 // the direction (robot frame, CCW from forward) of the total force: the attraction towards the
-// current goal plus the repulsion of obstacles. The visual heading correction enters through ψ
+// current goal plus the repulsion of the nearest obstacle point. The visual heading correction enters through ψ
 // (the paper corrects the force direction, not the robot's orientation estimate).
 // Integration is exact for piecewise-constant force over a step (a linear ODE), then the
 // acceleration and velocity limits of the base are applied.
@@ -24,7 +24,7 @@ struct PotentialFieldParameters {
   double lever = 0.4;                 // h [m]
   double attractive_gain = 1.0;       // F = gain · min(distance, saturation) [m/s² per m]
   double attraction_saturation = 1.0;  // [m]
-  double repulsive_gain = 0.2;        // [m³/s²]
+  double repulsive_gain = 0.2;        // [m³/s²] of the nearest obstacle point's repulsion
   double repulsive_range = 0.8;       // obstacles farther than this are ignored [m]
   double max_linear_velocity = 0.5;   // [m/s]
   double max_angular_velocity = 1.0;  // [rad/s]

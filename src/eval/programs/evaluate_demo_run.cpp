@@ -10,7 +10,8 @@
 // pose: the errors alone would call that a success); distance_travelled_m: along the ground truth;
 // route_distance_m: laps × the taught path; straight_speed_mps: the mean ground-truth speed while
 // turning slower than 0.1 rad/s, from the robot's first move to its last (stops on a straight
-// count: a robot that crawls or halts there is slow); min_wall_clearance_m: the closest the base
+// count: a robot that crawls or halts there is slow); straight_speed_way_clear_mps: the same without
+// the intervals in which the controller reported something in its way; min_wall_clearance_m: the closest the base
 // came to a wall (with --clutter 1: or to the world's clutter); min_person_clearance_m: to a
 // person's body (the `people` markers in the bag; null without). Exit code 3 when the run did not finish (metrics and
 // plot are written all the same). "final": the last ground-truth sample of the run against the pose the run
@@ -79,6 +80,8 @@ struct Run {
     double depth, width;
   };
   std::map<double, std::vector<Body>> people;
+  // When controller_node's state changed (bag time) and whether it then said something was in its way.
+  std::map<double, bool> blocked;
 };
 
 // The closest the base came to a person: each ground-truth sample against the bodies of the
@@ -102,8 +105,10 @@ nlohmann::json minPersonClearance(const Run& run) {
 
 
 // Mean speed over the straight legs (turning slower than 0.1 rad/s) between the first and the last
-// ground-truth interval in which the robot moved; null for a robot that never moved.
-nlohmann::json straightLegSpeed(const Run& run) {
+// ground-truth interval in which the robot moved; null for a robot that never moved. With
+// `way_clear`: only the intervals in which the controller did not report something in its way
+// (controller_node/state, "... something in the way"): how fast it drives where nobody stops it.
+nlohmann::json straightLegSpeed(const Run& run, bool way_clear = false) {
   constexpr double kStraightYawRate = 0.1;  // [rad/s]
   constexpr double kMoving = 0.02;          // [m/s]
   struct Interval {
@@ -113,6 +118,11 @@ nlohmann::json straightLegSpeed(const Run& run) {
   for (std::size_t i = 1; i < run.truth.size(); ++i) {
     const double dt = run.truth_stamps[i] - run.truth_stamps[i - 1];
     if (!(dt > 1e-3)) continue;
+    if (way_clear) {
+      // The controller's state at this interval: the last change at or before its start.
+      const auto state = run.blocked.upper_bound(run.truth_stamps[i - 1]);
+      if (state != run.blocked.begin() && std::prev(state)->second) continue;
+    }
     const double ds = std::hypot(run.truth[i].x - run.truth[i - 1].x, run.truth[i].y - run.truth[i - 1].y);
     intervals.push_back({dt, ds / dt, htr::wrapToPi(run.truth[i].yaw - run.truth[i - 1].yaw) / dt});
   }
@@ -170,6 +180,7 @@ Run readRun(const std::string& path) {
       if (!bodies.empty()) run.people[stamp] = std::move(bodies);
     } else if (const auto state = m.instantiate<std_msgs::String>()) {
       run.last_state = state->data;
+      run.blocked[m.getTime().toSec()] = state->data.find("something in the way") != std::string::npos;
     } else if (const auto pose = m.instantiate<geometry_msgs::PoseWithCovarianceStamped>()) {
       const auto estimate = htr::ros_conversions::toPose2D(pose->pose.pose);
       if (!estimate) continue;
@@ -343,6 +354,7 @@ int main(int argc, char** argv) {
     if (htr::isClosedLoop(path, 1.0)) route_length += std::hypot(path.back().x - end.x, path.back().y - end.y);
     metrics["distance_travelled_m"] = travelled;
     metrics["straight_speed_mps"] = straightLegSpeed(run);
+    metrics["straight_speed_way_clear_mps"] = straightLegSpeed(run, /*way_clear=*/true);
     metrics["min_wall_clearance_m"] = minWallClearance(*world, run.truth);
     metrics["min_person_clearance_m"] = minPersonClearance(run);
     metrics["route_distance_m"] = route_length * static_cast<double>(args.integer("laps"));

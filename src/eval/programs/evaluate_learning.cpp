@@ -14,10 +14,13 @@
 //                     [--step 0.1] [--learn-offset 0.05] [--test-offset -0.05] [--noise 2.0]
 //                     [--blur 0.5] [--camera-height 0.6] [--seed 1] [--plots 0|1]
 // Writes OUT/learning.json {"frames", "localized_taught_once", "localized_learned",
-// "experiences_added", "per_frame": [{"s_m", "taught_once", "learned", "experience"}], ...} and
+// "experiences_added", "experience_fix_error" / "taught_fix_error" {median_m, max_m, frames} (the
+// learned route's fixes against the true poses), "per_frame": [{"s_m", "taught_once", "learned",
+// "experience"}], ...} and
 // OUT/learning.png. Exit code 1 on bad input (a file, a variant no wall has).
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -59,8 +62,22 @@ std::vector<Pose2D> pathThrough(const std::vector<RouteKeyframe>& keyframes, dou
 
 struct Pass {
   std::vector<int> experience;  // per frame: -1 no visual fix, 0 the taught view, k > 0 experience k
+  std::vector<double> error;    // per frame: the fix's position error [m] (NaN without a fix)
   int localized = 0;
 };
+
+// Median and largest of the errors of the frames whose fix came from an experience (or, with
+// `taught`, from a taught view); null without such frames.
+nlohmann::json errorsOf(const Pass& pass, bool taught) {
+  std::vector<double> errors;
+  for (std::size_t i = 0; i < pass.error.size(); ++i) {
+    if (pass.experience[i] < 0 || (pass.experience[i] == 0) != taught) continue;
+    errors.push_back(pass.error[i]);
+  }
+  if (errors.empty()) return nullptr;
+  std::sort(errors.begin(), errors.end());
+  return {{"median_m", errors[errors.size() / 2]}, {"max_m", errors.back()}, {"frames", errors.size()}};
+}
 
 // One run of the pipeline over `poses` (true odometry), images rendered with `rng`; `recorder`
 // (optional) observes every frame.
@@ -79,6 +96,8 @@ Pass run(const Route& route, const RepeatPipelineOptions& options, const PlanarW
     const RepeatFrameResult result = pipeline->processFrame(stamp, image, camera);
     const bool fix = result.status.isOk() && result.estimate && result.estimate->has_pose && !result.estimate->degraded;
     pass.experience.push_back(fix ? result.estimate->experience : -1);
+    pass.error.push_back(fix ? std::hypot(result.estimate->base_pose.x - poses[i].x, result.estimate->base_pose.y - poses[i].y)
+                             : std::nan(""));
     pass.localized += fix ? 1 : 0;
     if (recorder && result.pose && result.covariance) {
       ExperienceObservation o;
@@ -176,6 +195,9 @@ int main(int argc, char** argv) {
     int by_experience = 0;
     for (const int e : after.experience) by_experience += e > 0 ? 1 : 0;
     doc["localized_by_experiences"] = by_experience;
+    // How right those fixes are (the test run's true poses): from the experiences, from taught views.
+    doc["experience_fix_error"] = errorsOf(after, false);
+    doc["taught_fix_error"] = errorsOf(after, true);
     doc["per_frame"] = nlohmann::json::array();
     double s = 0.0;
     for (std::size_t i = 0; i < test_path.size(); ++i) {
