@@ -192,7 +192,7 @@ Status PlanarWorld::validate() const {
     if (!std::isfinite(c.length) || !(c.length > 0.0) || !std::isfinite(c.width) || !(c.width > 0.0)) {
       return bad(name + ": size must be > 0");
     }
-    if (const std::string problem = checkSurface(c.surface); !problem.empty()) return bad(name + ": " + problem);
+    if (std::string problem = checkSurface(c.surface); !problem.empty()) return bad(problem.insert(0, name + ": "));
   }
   for (std::size_t i = 0; i < people.size(); ++i) {
     const Person& p = people[i];
@@ -211,7 +211,7 @@ Status PlanarWorld::validate() const {
     if (!std::isfinite(p.depth) || !(p.depth > 0.0) || !std::isfinite(p.width) || !(p.width > 0.0)) {
       return bad(name + ": size must be > 0");
     }
-    if (const std::string problem = checkSurface(p.surface); !problem.empty()) return bad(name + ": " + problem);
+    if (std::string problem = checkSurface(p.surface); !problem.empty()) return bad(problem.insert(0, name + ": "));
   }
   return Status::ok();
 }
