@@ -45,22 +45,12 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   auto pipeline = RepeatPipeline::create(*route, options);
   if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
   pipeline_.emplace(std::move(*pipeline));
-  route_ = *route;
   // Routes that learn (docs/route_format.md, "Experiences").
-  if (readParameter(private_nh, "learn_experiences", false)) {
-    ExperienceLearningOptions learning;
-    learning.learn_below_inliers = readParameter(private_nh, "learn_below_inliers", learning.learn_below_inliers);
-    learning.max_distance = readParameter(private_nh, "learn_max_distance", learning.max_distance);
-    learning.max_angle = readParameter(private_nh, "learn_max_angle", learning.max_angle);
-    learning.max_position_sigma = readParameter(private_nh, "learn_max_position_sigma", learning.max_position_sigma);
-    learning.max_experiences = readParameter(private_nh, "max_experiences", learning.max_experiences);
+  if (const auto learning = readExperienceLearningOptions(private_nh)) {
+    route_ = *route;
     std::vector<Pose2D> poses;
     for (const auto& k : route->keyframes) poses.push_back(k.pose);
-    try {
-      recorder_.emplace(poses, learning);
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error("learning parameters in " + private_nh.getNamespace() + ": " + e.what());
-    }
+    recorder_.emplace(poses, *learning);
     experience_extractor_.emplace(FeatureOptions{route->info.feature_type, options.localization.max_features});
     save_experiences_service_ = private_nh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
         "save_experiences", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
@@ -72,7 +62,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
         });
     ROS_INFO("repeat_node: learning: views where a keyframe matches with fewer than %d inliers are added to the route "
              "(at most %d per keyframe)",
-             learning.learn_below_inliers, learning.max_experiences);
+             learning->learn_below_inliers, learning->max_experiences);
   }
   if (pipeline_->localizer().experienceCount() > 0) {
     ROS_INFO("repeat_node: the route has %d learned views (experiences) besides its keyframes",
@@ -205,17 +195,10 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
   const RepeatFrameResult result =
       pipeline_->processFrame(image->header.stamp.toSec(), cv_image, ros_conversions::toPinholeCamera(*camera_info));
   publish(image, result, cv_image);
-  if (recorder_ && cv_image && result.pose && result.covariance) {
-    ExperienceObservation observation;
-    observation.stamp = image->header.stamp.toSec();
-    observation.image = *cv_image;
-    observation.pose = *result.pose;
-    observation.covariance = *result.covariance;
-    observation.trusted = result.integrity.level == IntegrityLevel::kOk;
-    const bool taught_view = result.status.isOk() && result.estimate && result.estimate->has_pose &&
-                             !result.estimate->degraded && result.estimate->experience == 0;
-    observation.taught_inliers = taught_view ? result.estimate->inliers : -1;
-    recorder_->observe(observation);
+  if (recorder_ && cv_image) {
+    if (const auto observation = observationOf(image->header.stamp.toSec(), *cv_image, result)) {
+      recorder_->observe(*observation);
+    }
   }
   FrameTiming timing;
   timing.processing_ms = 1e3 * (ros::WallTime::now() - started).toSec();

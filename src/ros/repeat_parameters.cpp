@@ -87,6 +87,20 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
   return o;
 }
 
+std::optional<ExperienceLearningOptions> readExperienceLearningOptions(const ros::NodeHandle& nh) {
+  if (!readParameter(nh, "learn_experiences", false)) return std::nullopt;
+  ExperienceLearningOptions o;
+  readParameters(nh, [&] {
+    o.learn_below_inliers = readParameter(nh, "learn_below_inliers", o.learn_below_inliers);
+    o.max_distance = readParameter(nh, "learn_max_distance", o.max_distance);
+    o.max_angle = readParameter(nh, "learn_max_angle", o.max_angle);
+    o.max_position_sigma = readParameter(nh, "learn_max_position_sigma", o.max_position_sigma);
+    o.max_experiences = readParameter(nh, "max_experiences", o.max_experiences);
+    o.validate();
+  });
+  return o;
+}
+
 // The run-time tunables of RepeatOptions as dynamic_reconfigure reports them.
 void writeRepeatTunables(const RepeatOptions& options, RepeatConfig& config) {
   config.mode = toString(options.mode);

@@ -49,14 +49,17 @@ cv::Vec3b colour(const YAML::Node& node, const std::string& field, const cv::Vec
   return c;
 }
 
-// A box's look: height, texture (relative to `folder`) and texture_size.
+// [length, width]-style pairs of the file.
+std::pair<double, double> pair(const YAML::Node& node, const std::string& field, const char* names) {
+  if (!node || !node.IsSequence() || node.size() != 2) throw FieldError("'" + field + "' must be " + names);
+  return {finiteNumber(node[0], field + "[0]"), finiteNumber(node[1], field + "[1]")};
+}
+
+// A box's (or a wall's) look: height, texture (relative to `folder`) and texture_size.
 BoxSurface boxSurface(const YAML::Node& node, const std::string& field, const std::filesystem::path& folder) {
   BoxSurface surface;
   surface.height = finiteNumber(node["height"], field + ".height");
-  const YAML::Node size = node["texture_size"];
-  if (!size || !size.IsSequence() || size.size() != 2) throw FieldError("'" + field + ".texture_size' must be [w, h]");
-  surface.texture_width = finiteNumber(size[0], field + ".texture_size[0]");
-  surface.texture_height = finiteNumber(size[1], field + ".texture_size[1]");
+  std::tie(surface.texture_width, surface.texture_height) = pair(node["texture_size"], field + ".texture_size", "[w, h]");
   if (!node["texture"] || !node["texture"].IsScalar()) throw FieldError("'" + field + ".texture' is missing");
   std::filesystem::path texture = node["texture"].as<std::string>();
   if (texture.is_relative()) texture = folder / texture;
@@ -66,20 +69,19 @@ BoxSurface boxSurface(const YAML::Node& node, const std::string& field, const st
   return surface;
 }
 
-// [length, width]-style pairs of the file.
-std::pair<double, double> pair(const YAML::Node& node, const std::string& field, const char* names) {
-  if (!node || !node.IsSequence() || node.size() != 2) throw FieldError("'" + field + "' must be " + names);
-  return {finiteNumber(node[0], field + "[0]"), finiteNumber(node[1], field + "[1]")};
+// What is wrong with a surface's height, texture size or texture ("" when nothing).
+std::string checkSurface(double height, double texture_width, double texture_height, const cv::Mat& texture) {
+  if (!std::isfinite(height) || !(height > 0.0)) return "height must be > 0";
+  if (!std::isfinite(texture_width) || !(texture_width > 0.0) || !std::isfinite(texture_height) ||
+      !(texture_height > 0.0)) {
+    return "texture_size must be > 0";
+  }
+  if (texture.empty() || texture.type() != CV_8UC3) return "no BGR texture image";
+  return "";
 }
 
 std::string checkSurface(const BoxSurface& s) {
-  if (!std::isfinite(s.height) || !(s.height > 0.0)) return "height must be > 0";
-  if (!std::isfinite(s.texture_width) || !(s.texture_width > 0.0) || !std::isfinite(s.texture_height) ||
-      !(s.texture_height > 0.0)) {
-    return "texture_size must be > 0";
-  }
-  if (s.texture.empty() || s.texture.type() != CV_8UC3) return "no BGR texture image";
-  return "";
+  return checkSurface(s.height, s.texture_width, s.texture_height, s.texture);
 }
 
 }  // namespace
@@ -166,12 +168,9 @@ Status PlanarWorld::validate() const {
     const std::string name = "walls[" + std::to_string(i) + "]" + (w.name.empty() ? "" : " (" + w.name + ")");
     if (!w.start.allFinite() || !w.end.allFinite()) return bad(name + ": start/end not finite");
     if (!(w.length() > 1e-6)) return bad(name + ": zero-length wall (start == end)");
-    if (!std::isfinite(w.height) || !(w.height > 0.0)) return bad(name + ": height must be > 0");
-    if (!std::isfinite(w.texture_width) || !(w.texture_width > 0.0) || !std::isfinite(w.texture_height) ||
-        !(w.texture_height > 0.0)) {
-      return bad(name + ": texture_size must be > 0");
+    if (std::string problem = checkSurface(w.height, w.texture_width, w.texture_height, w.texture); !problem.empty()) {
+      return bad(problem.insert(0, name + ": "));
     }
-    if (w.texture.empty() || w.texture.type() != CV_8UC3) return bad(name + ": no BGR texture image");
   }
   if (!std::isfinite(illumination.amplitude) || illumination.amplitude < 0.0 || illumination.amplitude >= 1.0) {
     return bad("illumination.amplitude must be in [0, 1)");
@@ -223,12 +222,6 @@ PlanarWorld PlanarWorld::withClutter() const {
   }
   world.clutter.clear();
   return world;
-}
-
-PlanarWorld PlanarWorld::withPeopleAt(double time) const {
-  std::vector<Pose2D> poses;
-  for (const Person& person : people) poses.push_back(person.poseAt(time));
-  return withPeople(poses);
 }
 
 PlanarWorld PlanarWorld::withPeople(const std::vector<Pose2D>& poses) const {
@@ -394,19 +387,12 @@ Expected<PlanarWorld> loadPlanarWorld(const std::string& path) {
       if (node["name"]) wall.name = node["name"].as<std::string>();
       wall.start = point(node["start"], field + ".start");
       wall.end = point(node["end"], field + ".end");
-      wall.height = finiteNumber(node["height"], field + ".height");
-      const YAML::Node size = node["texture_size"];
-      if (!size || !size.IsSequence() || size.size() != 2) throw FieldError("'" + field + ".texture_size' must be [w, h]");
-      wall.texture_width = finiteNumber(size[0], field + ".texture_size[0]");
-      wall.texture_height = finiteNumber(size[1], field + ".texture_size[1]");
-      if (!node["texture"] || !node["texture"].IsScalar()) throw FieldError("'" + field + ".texture' is missing");
-      std::filesystem::path texture = node["texture"].as<std::string>();
-      if (texture.is_relative()) texture = folder / texture;
-      wall.texture_path = texture.string();
-      wall.texture = cv::imread(wall.texture_path, cv::IMREAD_COLOR);
-      if (wall.texture.empty()) {
-        throw FieldError("'" + field + ".texture': cannot read image '" + wall.texture_path + "'");
-      }
+      BoxSurface surface = boxSurface(node, field, folder);  // a wall's look is read as a box's
+      wall.height = surface.height;
+      wall.texture = std::move(surface.texture);
+      wall.texture_path = std::move(surface.texture_path);
+      wall.texture_width = surface.texture_width;
+      wall.texture_height = surface.texture_height;
       if (const YAML::Node variants = node["variants"]) {
         if (!variants.IsSequence()) throw FieldError("'" + field + ".variants' must be a list of image files");
         for (std::size_t k = 0; k < variants.size(); ++k) {

@@ -19,6 +19,20 @@ void ExperienceLearningOptions::validate() const {
   if (max_experiences < 1) throw std::invalid_argument("max_experiences must be >= 1");
 }
 
+std::optional<ExperienceObservation> observationOf(double stamp, const cv::Mat& image, const RepeatFrameResult& result) {
+  if (!result.pose || !result.covariance) return std::nullopt;
+  ExperienceObservation o;
+  o.stamp = stamp;
+  o.image = image;
+  o.pose = *result.pose;
+  o.covariance = *result.covariance;
+  o.trusted = result.integrity.level == IntegrityLevel::kOk;
+  const bool taught_view = result.status.isOk() && result.estimate && result.estimate->has_pose &&
+                           !result.estimate->degraded && result.estimate->experience == 0;
+  o.taught_inliers = taught_view ? result.estimate->inliers : -1;
+  return o;
+}
+
 ExperienceRecorder::ExperienceRecorder(std::vector<Pose2D> keyframe_poses, const ExperienceLearningOptions& options)
     : keyframe_poses_(std::move(keyframe_poses)), options_(options) {
   options_.validate();

@@ -81,9 +81,9 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
 Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mount) {
   for (std::size_t k = 0; k < keyframes_.size(); ++k) {
     const KeyframeReference& keyframe = keyframes_[k];
+    if (!keyframe.plane) continue;  // a pose needs the place's plane
     const auto& experiences = route.keyframes[k].experiences;
     for (std::size_t e = experiences.size(); e-- > 0;) {  // newest first
-      if (!keyframe.plane) continue;  // a pose needs the place's plane
       const RouteExperience& learned = experiences[e];
       // The experience's camera in the keyframe's camera frame carries the plane into its frame.
       const PlanarPose relative = mount.baseToCamera(keyframe.base_pose.inverse().compose(learned.pose));

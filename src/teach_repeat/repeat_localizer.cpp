@@ -114,18 +114,11 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
                                     " gives a heading fix here (turned in place, or facing more than " +
                                     std::to_string(options().mu_max_reference_angle) + " rad away)");
   }
-  // The first estimate the check refused: returned when no other reference gives one it accepts
-  // (the caller decides about it, as without a check).
-  std::optional<RepeatEstimate> first_refused;
-  // The view an estimate was made against: the keyframe's taught view or one of its experiences.
-  auto viewOf = [&](const RepeatEstimate& estimate) -> const KeyframeReference& {
-    for (const KeyframeReference& e : keyframes_.experiences(estimate.keyframe)) {
-      if (e.experience == estimate.experience) return e;
-    }
-    return keyframes_.at(estimate.keyframe);
-  };
-  auto use = [&](RepeatEstimate estimate) -> Expected<RepeatEstimate> {
-    keepAsTemporaryReference(frame, estimate, viewOf(estimate));
+  // The first estimate the check refused, with the view it was made against: returned when no
+  // other reference gives one it accepts (the caller decides about it, as without a check).
+  std::optional<std::pair<RepeatEstimate, const KeyframeReference*>> first_refused;
+  auto use = [&](RepeatEstimate estimate, const KeyframeReference& view) -> Expected<RepeatEstimate> {
+    keepAsTemporaryReference(frame, estimate, view);
     degraded_frames_ = 0;
     // Tracking follows the taught view's features only (an experience has its own).
     if (estimate.experience == 0) rememberForTracking(estimate, gray, 0);
@@ -149,11 +142,11 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeAgainstCandidates(const FrameO
         continue;
       }
       const Status verdict = vet(check, *estimate);
-      if (verdict.isOk()) return use(std::move(*estimate));
-      if (!first_refused) first_refused = std::move(*estimate);
+      if (verdict.isOk()) return use(std::move(*estimate), *view);
+      if (!first_refused) first_refused.emplace(std::move(*estimate), view);
     }
   }
-  if (first_refused) return use(std::move(*first_refused));
+  if (first_refused) return use(std::move(first_refused->first), *first_refused->second);
   const bool temporary_usable =
       temporary_ && estimator_->usable(*temporary_, temporary_keyframe_, predicted_pose);
   if (!temporary_usable || degraded_frames_ >= max_degraded_frames) return last_failure;

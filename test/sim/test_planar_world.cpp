@@ -485,7 +485,7 @@ TEST(PlanarWorld, ClutterAndPeopleFromTheWorldFile) {
   EXPECT_NEAR(distanceToBox(Eigen::Vector2d(3.0, 0.5), visitor.poseAt(15.0), 0.3, 0.5), 1.5 - 0.15, 1e-12);
   EXPECT_NEAR(distanceToBox(Eigen::Vector2d(3.0, 2.0), visitor.poseAt(15.0), 0.3, 0.5), 0.0, 1e-12);  // inside
   EXPECT_NEAR(distanceToBox(Eigen::Vector2d(4.25, 3.15), visitor.poseAt(15.0), 0.3, 0.5), std::hypot(1.0, 1.0), 1e-12);
-  const PlanarWorld with_people = world->withPeopleAt(15.0);
+  const PlanarWorld with_people = world->withPeople({visitor.poseAt(15.0)});
   ASSERT_EQ(with_people.walls.size(), 5u);
   // The laser sees the person standing at (3, 2): from (3, 0.5) looking north, 1.5 m minus half a depth.
   const auto ranges = castScan(with_people, Pose2D(3.0, 0.5, M_PI / 2), 0.0, 0.0, 1, 8.0);

@@ -72,7 +72,7 @@ class RepeatNode {
 
   std::mutex mutex_;
   std::optional<RepeatPipeline> pipeline_;
-  std::optional<Route> route_;                    // the route as loaded (learning writes into it)
+  std::optional<Route> route_;                    // learning: the route as loaded, written into
   std::optional<ExperienceRecorder> recorder_;    // learn_experiences
   std::optional<FeatureExtractor> experience_extractor_;
   int experiences_saved_ = 0;

@@ -144,7 +144,7 @@ struct PlanarWorld {
   std::vector<Wall> walls;
   std::vector<CoveredRegion> camera_covered;
   std::vector<ClutterBox> clutter;  // not in `walls` until withClutter()
-  std::vector<Person> people;       // not in `walls`: withPeopleAt(time)
+  std::vector<Person> people;       // not in `walls`: withPeople(poses)
   cv::Vec3b floor_colour{70, 70, 70};
   cv::Vec3b ceiling_colour{200, 200, 200};
   Illumination illumination;
@@ -161,9 +161,7 @@ struct PlanarWorld {
   Expected<PlanarWorld> withAppearance(int variant) const;
   // The world with its clutter standing in it (the boxes' sides added to `walls`).
   PlanarWorld withClutter() const;
-  // The world at simulated time `time`: every person's body added to `walls` where they stand.
-  PlanarWorld withPeopleAt(double time) const;
-  // The world with person i's body at poses[i] (a Crowd's poses()).
+  // The world with person i's body added to `walls` at poses[i] (a Crowd's poses()).
   PlanarWorld withPeople(const std::vector<Pose2D>& poses) const;
 };
 
@@ -178,7 +176,6 @@ class Crowd {
   // From `time` to `time + dt` [simulated s], the robot's centre at `robot`.
   void advance(double time, double dt, const Eigen::Vector2d& robot);
   std::vector<Pose2D> poses() const;
-  const std::vector<Person>& people() const { return people_; }
   // [s] how long person i has stood for the robot so far.
   double yieldedSeconds(std::size_t i) const { return yielded_.at(i); }
 

@@ -19,6 +19,7 @@
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
@@ -45,6 +46,11 @@ struct ExperienceObservation {
   int taught_inliers = -1;    // inliers against that keyframe's taught view (-1: it failed or an
                               // experience gave the estimate)
 };
+
+// What a repeat frame (RepeatPipeline::processFrame's result for `image`) says: its published pose
+// and covariance, whether the integrity is OK, the inliers when a keyframe's taught view localized
+// it. nullopt for a frame without a pose or a covariance.
+std::optional<ExperienceObservation> observationOf(double stamp, const cv::Mat& image, const RepeatFrameResult& result);
 
 class ExperienceRecorder {
  public:

@@ -63,7 +63,9 @@ std::vector<Pose2D> pathThrough(const std::vector<RouteKeyframe>& keyframes, dou
 struct Pass {
   std::vector<int> experience;  // per frame: -1 no visual fix, 0 the taught view, k > 0 experience k
   std::vector<double> error;    // per frame: the fix's position error [m] (NaN without a fix)
-  int localized = 0;
+  int localized() const {
+    return static_cast<int>(std::count_if(experience.begin(), experience.end(), [](int e) { return e >= 0; }));
+  }
 };
 
 // Median and largest of the errors of the frames whose fix came from an experience (or, with
@@ -98,16 +100,8 @@ Pass run(const Route& route, const RepeatPipelineOptions& options, const PlanarW
     pass.experience.push_back(fix ? result.estimate->experience : -1);
     pass.error.push_back(fix ? std::hypot(result.estimate->base_pose.x - poses[i].x, result.estimate->base_pose.y - poses[i].y)
                              : std::nan(""));
-    pass.localized += fix ? 1 : 0;
-    if (recorder && result.pose && result.covariance) {
-      ExperienceObservation o;
-      o.stamp = stamp;
-      o.image = image;
-      o.pose = *result.pose;
-      o.covariance = *result.covariance;
-      o.trusted = result.integrity.level == IntegrityLevel::kOk;
-      o.taught_inliers = fix && result.estimate->experience == 0 ? result.estimate->inliers : -1;
-      recorder->observe(o);
+    if (recorder) {
+      if (const auto observation = observationOf(stamp, image, result)) recorder->observe(*observation);
     }
   }
   return pass;
@@ -188,10 +182,10 @@ int main(int argc, char** argv) {
     doc["mode"] = args.text("mode");
     doc["keyframes"] = taught->keyframes.size();
     doc["frames"] = test_path.size();
-    doc["learning_run_localized"] = learning.localized;
+    doc["learning_run_localized"] = learning.localized();
     doc["experiences_added"] = *added;
-    doc["localized_taught_once"] = once.localized;
-    doc["localized_learned"] = after.localized;
+    doc["localized_taught_once"] = once.localized();
+    doc["localized_learned"] = after.localized();
     int by_experience = 0;
     for (const int e : after.experience) by_experience += e > 0 ? 1 : 0;
     doc["localized_by_experiences"] = by_experience;
@@ -213,8 +207,8 @@ int main(int argc, char** argv) {
     std::ofstream(json_path) << doc.dump(2) << "\n";
     std::printf("changed appearance (variant %d, light %.2f), %s: %d of %zu frames localized by the route taught once, "
                 "%d by the route that learned from one run (%d experiences added; %d frames by them)\n",
-                static_cast<int>(args.integer("variant")), gain, args.text("mode").c_str(), once.localized,
-                test_path.size(), after.localized, *added, by_experience);
+                static_cast<int>(args.integer("variant")), gain, args.text("mode").c_str(), once.localized(),
+                test_path.size(), after.localized(), *added, by_experience);
     if (args.integer("plots") != 0 && eval::drawPlots(json_path, "evaluate_learning") != 0) return 1;
   } catch (const std::exception& e) {
     std::cerr << "evaluate_learning: " << e.what() << "\n";

@@ -304,9 +304,10 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
   // Odometry is delivered after its jitter (tf with it); the ground truth at once.
   const double jitter = odometry_jitter_ > 0.0 ? rng_.uniform(0.0, odometry_jitter_) : 0.0;
   pending_odometry_.push_back(
-      PendingOdometry{stamp.toSec() + jitter, odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp,
-                                                              odom_frame_, base_frame_, odometry_variance_floor_,
-                                                              kUnobservedVariance)});
+      PendingOdometry{stamp.toSec() + jitter,
+                      odometryMessage(odom, robot_->odometryCovariance(), odometry_velocity, stamp, odom_frame_,
+                                      base_frame_, odometry_variance_floor_, kUnobservedVariance),
+                      transformMessage(odom, 0.0, stamp, odom_frame_, base_frame_)});
   ground_truth_publisher_.publish(odometryMessage(truth, Eigen::Matrix3d::Zero(), truth_velocity, stamp, world_frame_,
                                                   base_frame_, odometry_variance_floor_, kUnobservedVariance));
   tf_broadcaster_.sendTransform(
@@ -316,15 +317,8 @@ void PlanarWorldSim::publishState(const ros::Time& stamp) {
 void PlanarWorldSim::deliverOdometry(double sim_seconds) {
   // In stamp order, as a base driver publishes (a late message holds back the ones after it).
   while (!pending_odometry_.empty() && pending_odometry_.front().deliver_at <= sim_seconds + 1e-9) {
-    const nav_msgs::Odometry& m = pending_odometry_.front().message;
-    odometry_publisher_.publish(m);
-    geometry_msgs::TransformStamped t;
-    t.header = m.header;
-    t.child_frame_id = m.child_frame_id;
-    t.transform.translation.x = m.pose.pose.position.x;
-    t.transform.translation.y = m.pose.pose.position.y;
-    t.transform.rotation = m.pose.pose.orientation;
-    tf_broadcaster_.sendTransform(t);
+    odometry_publisher_.publish(pending_odometry_.front().message);
+    tf_broadcaster_.sendTransform(pending_odometry_.front().transform);
     pending_odometry_.pop_front();
   }
 }

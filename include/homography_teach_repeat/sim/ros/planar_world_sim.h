@@ -14,6 +14,7 @@
 // Parameters: see config/planar_world_sim.yaml
 #pragma once
 
+#include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
 #include <image_transport/image_transport.h>
@@ -97,6 +98,7 @@ class PlanarWorldSim {
   struct PendingOdometry {
     double deliver_at;  // [simulated s]
     nav_msgs::Odometry message;
+    geometry_msgs::TransformStamped transform;  // odom -> base_link, with it
   };
   std::deque<PendingOdometry> pending_odometry_;
   sensor_msgs::CameraInfo camera_info_;  // the calibration published with every image
