@@ -328,6 +328,21 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
       planes[k] = *plane;
     }
   }
+  // Where the pair before a keyframe turned clearly less than the pair after it, that pair's plane
+  // carried into the keyframe (docs/math.md §2.6). From the estimates of the pairs themselves, so
+  // that one choice does not feed the next.
+  if (options.straighter_pair_margin >= 0.0) {
+    const std::vector<std::optional<ScenePlane>> direct = planes;
+    for (std::size_t k = 1; k < pairs.size(); ++k) {
+      if (!direct[k] || !direct[k - 1]) continue;
+      if (std::abs(pairs[k - 1].odometry_motion.theta) + options.straighter_pair_margin >=
+          std::abs(pairs[k].odometry_motion.theta)) {
+        continue;
+      }
+      const auto carried = transferPlane(*direct[k - 1], pairs[k - 1].odometry_motion);
+      if (carried) planes[k] = *carried;
+    }
+  }
   // Fill the gaps by transferring the previous plane along the motion (§2.2); before the first
   // estimate, backwards from the next one.
   for (std::size_t k = 1; k < planes.size(); ++k) {

@@ -49,7 +49,13 @@ class PointEstimator : public KeyframeEstimator {
                                     const std::optional<Pose2D>& /*predicted_pose*/) const override {
     const auto dmatches = matchFeatures(reference.features, frame.features, context_.options.matching);
     if (!dmatches) return dmatches.status();
-    return estimateFromMatches(reference, keyframe, toPointMatches(reference.features, frame.features, *dmatches));
+    auto estimate = estimateFromMatches(reference, keyframe, toPointMatches(reference.features, frame.features, *dmatches));
+    if (estimate) {
+      // Which of the frame's features the inliers are (estimateFromMatches leaves their indices
+      // into the matches there).
+      for (int& i : estimate->inlier_features) i = (*dmatches)[static_cast<std::size_t>(i)].trainIdx;
+    }
+    return estimate;
   }
 
   Expected<RepeatEstimate> estimateFromMatches(const KeyframeReference& reference, int keyframe,
@@ -65,7 +71,11 @@ class PointEstimator : public KeyframeEstimator {
     auto relative = cameraPose(reference, matches, &inliers, &estimate);
     if (!relative) return relative.status();
     estimate.inliers = static_cast<int>(inliers.size());
-    for (const int i : inliers) estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(kept[static_cast<std::size_t>(i)])]);
+    for (const int i : inliers) {
+      const int match = kept[static_cast<std::size_t>(i)];
+      estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(match)]);
+      estimate.inlier_features.push_back(match);  // an index into `measured` until estimate() maps it
+    }
     if (estimate.inliers < context_.options.min_inliers) {
       return Status(StatusCode::kNoConsensus, std::to_string(estimate.inliers) + " inliers against keyframe " +
                                                   std::to_string(keyframe) + ", need " +

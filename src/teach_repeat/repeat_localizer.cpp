@@ -171,8 +171,21 @@ void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const Re
                                                const KeyframeReference& source) {
   const std::optional<ScenePlane>& from_plane = source.plane;
   KeyframeReference current;
-  current.features = std::move(frame.features);
   current.lines = std::move(frame.lines);
+  if (estimate.has_pose && !estimate.inlier_features.empty()) {
+    // Only the features on the reference's plane: the frame's other features (clutter in front of
+    // the wall, another wall) would be matched by the next frames too, and a parallel surface
+    // nearer or farther than the plane gives a homography that the plane's distance scales into
+    // a wrong pose passing every check (the simulator's room, a shelf before the west wall: 7 cm
+    // off claiming 7 mm; docs/reliability.md, "Temporary reference").
+    current.features.type = frame.features.type;
+    for (const int i : estimate.inlier_features) {
+      current.features.keypoints.push_back(frame.features.keypoints[static_cast<std::size_t>(i)]);
+      current.features.descriptors.push_back(frame.features.descriptors.row(i));
+    }
+  } else {
+    current.features = std::move(frame.features);
+  }
   if (estimate.has_pose) {
     // The frame's pose, and the reference's plane seen from it; without a plane it cannot serve.
     current.base_pose = estimate.base_pose;
@@ -208,6 +221,7 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray
   timing_.references_ms = millisecondsSince(references_start);
   if (!estimate) return estimate;
   estimate->tracked = true;
+  estimate->inlier_features.clear();  // indices into the tracked matches, not into detected features
   const Status verdict = vet(check, *estimate);
   if (!verdict.isOk()) return verdict;
   timing_.tracked = true;

@@ -220,6 +220,47 @@ TEST(PlaneEstimation, PlanesFromOdometryAcrossTwoWalls) {
   }
 }
 
+// docs/math.md §2.6: a keyframe whose next pair turns takes its plane from the straight pair
+// before it. The turning pair's homography is made wrong on purpose (the plane it sees tilted 5°,
+// as a turn's homography misleads §2.4 in the simulator's gallery): the keyframe gets the true
+// plane, carried from the pair before; with the margin negative it keeps the turning pair's; a
+// keyframe whose pair before turned as much keeps its own pair's.
+TEST(PlaneEstimation, AKeyframeBeforeATurnTakesTheStraighterPair) {
+  const ScenePlane wall{Eigen::Vector3d::UnitZ(), 5.0};
+  const std::vector<PlanarPose> cameras = {PlanarPose(0, 0, 0), PlanarPose(0, 0.5, 0), PlanarPose(0, 1.0, 0),
+                                           PlanarPose(0.1, 1.5, 0.4), PlanarPose(0.3, 1.9, 0.8)};
+  const ScenePlane misread{Eigen::Vector3d(std::sin(0.087), 0.0, std::cos(0.087)), 5.0};
+  std::vector<ReferencePair> pairs;
+  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
+    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
+    const auto seen = transferPlane(k == 2 ? misread : wall, cameras[k]);
+    ASSERT_TRUE(seen.isOk());
+    ReferencePair pair;
+    pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *seen);
+    pair.has_odometry = true;
+    pair.odometry_motion = motion;
+    pairs.push_back(pair);
+  }
+  const auto truth = transferPlane(wall, cameras[2]);
+  const auto misread_at_2 = transferPlane(misread, cameras[2]);
+  ASSERT_TRUE(truth.isOk() && misread_at_2.isOk());
+
+  const auto chosen = estimatePlanesFromOdometry(pairs, mathCamera());
+  ASSERT_TRUE(chosen.isOk()) << chosen.status().toString();
+  EXPECT_NEAR((chosen->planes[2].normal - truth->normal).norm(), 0.0, 1e-6);
+  EXPECT_NEAR(chosen->planes[2].distance, truth->distance, 1e-6);
+  // Keyframe 3: the pair before it (the misread turn, 0.4 rad) turned as much as its own: its own.
+  const auto truth_3 = transferPlane(wall, cameras[3]);
+  ASSERT_TRUE(truth_3.isOk());
+  EXPECT_NEAR((chosen->planes[3].normal - truth_3->normal).norm(), 0.0, 1e-6);
+
+  OdometryPlaneOptions always_next;
+  always_next.straighter_pair_margin = -1.0;
+  const auto next = estimatePlanesFromOdometry(pairs, mathCamera(), always_next);
+  ASSERT_TRUE(next.isOk()) << next.status().toString();
+  EXPECT_NEAR((next->planes[2].normal - misread_at_2->normal).norm(), 0.0, 1e-6);
+}
+
 // docs/math.md §2.5: the second camera tilted (pitch, roll) relative to the first. The planar-motion
 // formula reads the tilt as a wrong plane; the tilt-aware one recovers plane and tilt, for forward
 // and sideways motion, at any scale and sign of H; the same call on level data reports no tilt.

@@ -271,6 +271,31 @@ TEST_F(RepeatLocalizerTest, DegradedWhenOnlyTheLastFrameMatches) {
   EXPECT_EQ(strict_only->localize(wall_->imageAt(b)).status().code(), StatusCode::kNoConsensus);
 }
 
+// The temporary reference keeps only the features on the keyframe's plane (docs/reliability.md,
+// "Temporary reference"): frame A shows the taught wall with a box in front of it (a texture the
+// keyframe never saw); frame B shows only that box. Matched against A's whole image, B would give
+// a pose from the box's features read as the wall's; kept to A's inliers, the temporary reference
+// has none of the box's, and B gets no pose.
+TEST_F(RepeatLocalizerTest, TheTemporaryReferenceKeepsOnlyThePlanesFeatures) {
+  const PlanarPose a(0.02, 0.05, 0.01);
+  cv::Mat with_box = wall_->imageAt(a);
+  const cv::Rect box(20, 120, 260, 240);
+  test_support::makeTexture(box.width, box.height, 77).copyTo(with_box(box));
+  cv::Mat only_box(with_box.size(), with_box.type(), cv::Scalar(128));
+  with_box(box).copyTo(only_box(box));
+
+  RepeatOptions options;
+  options.neighbour_search = 0;
+  auto localizer = RepeatLocalizer::create(route(), options);
+  ASSERT_TRUE(localizer.isOk());
+  const auto on_a = localizer->localize(with_box);
+  ASSERT_TRUE(on_a.isOk()) << on_a.status().toString();
+  ASSERT_FALSE(on_a->degraded);
+  const auto on_b = localizer->localize(only_box);
+  EXPECT_FALSE(on_b.isOk() && on_b->has_pose)
+      << "a pose from the box's features, keyframe " << on_b->keyframe << (on_b->degraded ? " (degraded)" : "");
+}
+
 TEST(RepeatLocalizer, RouteWithoutPlanesNeedsMuMode) {
   Route route;
   route.directory = "/nonexistent";

@@ -120,8 +120,9 @@ Expected<RouteSequencePlanes> estimatePlanesAlongRoute(const std::vector<Referen
 // each keyframe's plane from its pair's homography and the odometry motion
 // (planeFromHomographyAndMotion) when the pair has at least `min_baseline` [m] of translation and
 // the result is plausible (in front of the camera, not a floor/ceiling, nearer than
-// `max_distance`); otherwise the previous keyframe's plane transferred by the motion (§2.2; e.g.
-// while turning in place). The last keyframe inherits the transfer of the one before it.
+// `max_distance`), or from the pair before it when that one turned less (straighter_pair_margin);
+// otherwise the previous keyframe's plane transferred by the motion (§2.2; e.g. while turning in
+// place). The last keyframe inherits the transfer of the one before it.
 // Status: kInvalidInput (no pairs, a pair without odometry), kDegenerate (no keyframe could be
 // estimated before the first transfer was needed).
 struct OdometryPlaneOptions {
@@ -130,6 +131,13 @@ struct OdometryPlaneOptions {
   // Estimate each pair's relative tilt with its plane (planeAndTiltFromHomographyAndMotion): for
   // images levelled by one constant mount rotation, whose body pitches and rolls between keyframes.
   bool estimate_tilt = false;
+  // A keyframe's plane comes from the pair that starts at it (k -> k+1) unless the pair that ends
+  // at it (k-1 -> k) turned less by more than this margin [rad]: then from that pair, transferred
+  // into keyframe k by the motion (§2.2). A pair that turns sees the wall from two directions with
+  // little overlap, and its plane was degrees off where the straight pair before it was exact (the
+  // simulator's gallery: 4.9° and 8 mm against 0.08° and 1 mm at keyframe 26; docs/math.md §2.6).
+  // Negative: always the pair that starts at the keyframe.
+  double straighter_pair_margin = 0.05;
 };
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,

@@ -128,6 +128,10 @@ struct RepeatEstimate {
   // The inlier correspondences (reference keyframe pixel -> current pixel, as measured, i.e.
   // distorted) for visualisation; mu mode: the matched line x at the principal row.
   PointMatches inlier_matches;
+  // fast_hd/classic, detected frames (not tracked): the frame features (indices into
+  // FrameObservations::features) of those inliers, i.e. the features on the reference's plane.
+  // A temporary reference keeps only these (RepeatLocalizer, docs/reliability.md).
+  std::vector<int> inlier_features;
 };
 
 // Where the wall-clock time of the last localize() call went (repeat_node reports it in its
