@@ -61,6 +61,11 @@ void RouteFollowerOptions::validate() const {
   if (!std::isfinite(obstacle_slow_gap) || !(obstacle_slow_gap > obstacle_stop_gap)) {
     throw std::invalid_argument("obstacle_slow_gap must be finite and > obstacle_stop_gap");
   }
+  if (!std::isfinite(pass_offset) || pass_offset < 0.0) throw std::invalid_argument("pass_offset must be finite and >= 0");
+  if (!std::isfinite(pass_clearance) || pass_clearance < 0.0) {
+    throw std::invalid_argument("pass_clearance must be finite and >= 0");
+  }
+  positive(pass_lookahead, "pass_lookahead");
   if (!std::isfinite(lost_search_delay) || lost_search_delay < 0.0) {
     throw std::invalid_argument("lost_search_delay must be finite and >= 0");
   }
@@ -244,10 +249,13 @@ FollowOutput RouteFollower::update(double now, double dt,
   while (next_ + 1 < sequence_.size() && reached(next_)) ++next_;
   const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
   const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
-  // Whatever drives the robot forward is capped for what stands in the corridor ahead.
-  std::string blocked;
-  const double speed_cap = obstacleSpeedLimit(obstacles, &blocked);
+  // Whatever drives the robot forward is capped for what stands in the corridor ahead (along the
+  // lane while passing beside something).
+  std::optional<Lane> lane;
   auto go = [&](double to_goal) {
+    std::string blocked;
+    const double speed_cap = obstacleSpeedLimit(obstacles, lane ? &*lane : nullptr, &blocked);
+    if (blocked.empty() && lane) blocked = "passing beside something in the way";
     return following(controller_.capLinearVelocity(speed_cap), to_goal, blocked);
   };
   if (next_ + 1 == sequence_.size() && (at_final_position_ || distance < options_.final_approach_distance)) {
@@ -265,23 +273,105 @@ FollowOutput RouteFollower::update(double now, double dt,
     if (!command) return stop(FollowState::kStopped, command.status().message());
     return go(distance);
   }
+  // Something beside the route in the way: pure pursuit of a point pass_lookahead ahead on the free
+  // lane (the potential field turns far too gently for a lane change, and its repulsion would hold
+  // the robot back beside what it passes; the corridor cap still guards the lane).
+  lane = passingLane(obstacles);
+  if (lane) {
+    const Eigen::Vector2d target =
+        lane->origin + (lane->robot_along + options_.pass_lookahead) * lane->along + lane->offset * lane->left;
+    const double to_target = goalBearing(pose_, Pose2D(target.x(), target.y(), 0.0), heading_offset_);
+    // The arc to the target, κ = 2 sin α / L, at the speed the robot has (the corridor cap may hold
+    // it below the limit; ω for the limit would then turn it far more sharply than the arc).
+    const double v_max = options_.controller.max_linear_velocity;
+    const double curvature = 2.0 * std::sin(to_target) / options_.pass_lookahead;
+    const double v_now = std::max(controller_.state().linear, 0.1 * v_max);
+    const auto command = controller_.track(v_max, curvature * v_now, dt);
+    if (!command) return stop(FollowState::kStopped, command.status().message());
+    return go(distance);
+  }
   const auto command = controller_.step(distance + straightRunAfter(next_), bearing, obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
   return go(distance);
 }
 
-double RouteFollower::obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, std::string* reason) const {
+double RouteFollower::obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, const Lane* lane,
+                                         std::string* reason) const {
   const double v_max = options_.controller.max_linear_velocity;
-  if (!(options_.robot_radius > 0.0)) return v_max;
+  const double r = options_.robot_radius;
+  if (!(r > 0.0)) return v_max;
   double gap = std::numeric_limits<double>::infinity();
+  const double c = std::cos(pose_.yaw), s = std::sin(pose_.yaw);
   for (const Eigen::Vector2d& o : obstacles) {
-    if (o.x() > 0.0 && std::abs(o.y()) < options_.robot_radius) gap = std::min(gap, o.x() - options_.robot_radius);
+    if (lane == nullptr) {  // straight ahead of the base
+      if (o.x() > 0.0 && std::abs(o.y()) < r) gap = std::min(gap, o.x() - r);
+      continue;
+    }
+    // Passing beside: everything the base sweeps moving over from where it is to the lane and
+    // along it (a person stepping towards the route while the robot has not yet moved over is in
+    // its way: the gallery's visitor came within 0.18 m when only the lane itself was checked).
+    const Eigen::Vector2d w = Eigen::Vector2d(pose_.x, pose_.y) + Eigen::Vector2d(c * o.x() - s * o.y(), s * o.x() + c * o.y());
+    const double ahead = (w - lane->origin).dot(lane->along) - lane->robot_along;
+    const double lateral = (w - lane->origin).dot(lane->left);
+    const double low = std::min(lane->robot_lateral, lane->offset) - r, high = std::max(lane->robot_lateral, lane->offset) + r;
+    if (ahead > 0.0 && lateral > low && lateral < high) gap = std::min(gap, ahead - r);
   }
   const double fraction = std::clamp(
       (gap - options_.obstacle_stop_gap) / (options_.obstacle_slow_gap - options_.obstacle_stop_gap), 0.0, 1.0);
   // No figure in the reason: controller_node publishes its state on every change.
   if (fraction < 1.0) *reason = fraction > 0.0 ? "slowed down: something in the way" : "waiting: something in the way";
   return fraction * v_max;
+}
+
+std::optional<RouteFollower::Lane> RouteFollower::passingLane(const std::vector<Eigen::Vector2d>& obstacles) {
+  const double r = options_.robot_radius;
+  const double kept = pass_lane_;
+  pass_lane_ = 0.0;
+  if (!(options_.pass_offset > 0.0) || !(r > 0.0) || next_ == 0 || obstacles.empty()) return std::nullopt;
+  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
+  const Pose2D& previous = goals_[static_cast<std::size_t>(sequence_[next_ - 1])];
+  Lane lane;
+  lane.origin = Eigen::Vector2d(previous.x, previous.y);
+  lane.along = Eigen::Vector2d(goal.x - previous.x, goal.y - previous.y);
+  if (lane.along.norm() < options_.corner_radius) return std::nullopt;  // a turn in place
+  lane.along.normalize();
+  lane.left = Eigen::Vector2d(-lane.along.y(), lane.along.x());
+  const Eigen::Vector2d robot(pose_.x, pose_.y);
+  lane.robot_along = (robot - lane.origin).dot(lane.along);
+  lane.robot_lateral = (robot - lane.origin).dot(lane.left);
+  const double c = std::cos(pose_.yaw), s = std::sin(pose_.yaw);
+  // The lateral offsets from the route's line of the points the robot passes from here to the end
+  // of its slow-down distance and the lookahead (it moves over before it has to slow down).
+  std::vector<double> beside;
+  bool on_the_line = false;
+  const double clearance = r + options_.pass_clearance;
+  for (const Eigen::Vector2d& o : obstacles) {
+    const Eigen::Vector2d w = robot + Eigen::Vector2d(c * o.x() - s * o.y(), s * o.x() + c * o.y());
+    const double ahead = (w - lane.origin).dot(lane.along) - lane.robot_along;
+    if (ahead < -r || ahead > 2.0 * r + options_.obstacle_slow_gap + options_.pass_lookahead) continue;
+    const double lateral = (w - lane.origin).dot(lane.left);
+    beside.push_back(lateral);
+    on_the_line = on_the_line || std::abs(lateral) < clearance;
+  }
+  if (!on_the_line) return std::nullopt;
+  auto free = [&](double offset) {
+    if (std::abs(offset) > options_.pass_offset + 1e-9) return false;
+    return std::none_of(beside.begin(), beside.end(),
+                        [&](double l) { return std::abs(l - offset) < clearance - 1e-9; });
+  };
+  double best = 0.0;
+  if (kept != 0.0 && free(kept)) {
+    best = kept;
+  } else {
+    for (const double l : beside) {
+      for (const double offset : {l + clearance, l - clearance}) {
+        if (free(offset) && (best == 0.0 || std::abs(offset) < std::abs(best))) best = offset;
+      }
+    }
+  }
+  if (best == 0.0) return std::nullopt;  // no lane: the corridor cap makes it wait
+  pass_lane_ = lane.offset = best;
+  return lane;
 }
 
 double RouteFollower::straightRunAfter(std::size_t position) const {

@@ -61,6 +61,9 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.robot_radius = readParameter(nh, "robot_radius", o.robot_radius);
     o.obstacle_stop_gap = readParameter(nh, "obstacle_stop_gap", o.obstacle_stop_gap);
     o.obstacle_slow_gap = readParameter(nh, "obstacle_slow_gap", o.obstacle_slow_gap);
+    o.pass_offset = readParameter(nh, "pass_offset", o.pass_offset);
+    o.pass_clearance = readParameter(nh, "pass_clearance", o.pass_clearance);
+    o.pass_lookahead = readParameter(nh, "pass_lookahead", o.pass_lookahead);
     o.validate();
   });
   return o;

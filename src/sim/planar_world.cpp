@@ -154,6 +154,16 @@ Pose2D Person::poseAt(double time) const {
   return along(0.0, true);
 }
 
+double Person::turnedBackAt(double time) const {
+  const double walk = pathLength() / speed;
+  const double cycle = 2.0 * walk + pause_at_start + pause_at_end;
+  if (time <= start_time) return time;
+  const double t = std::fmod(time - start_time, cycle);
+  // The outbound leg at t and the return leg at 2 walk + pause_at_end − t are at the same point.
+  const bool walking = t < walk || (t >= walk + pause_at_end && t < 2.0 * walk + pause_at_end);
+  return walking ? time - t + (2.0 * walk + pause_at_end - t) : time;
+}
+
 double Illumination::gainAt(double time) const {
   return 1.0 + amplitude * std::sin(2.0 * M_PI * time / period);
 }
@@ -238,12 +248,14 @@ PlanarWorld PlanarWorld::withPeople(const std::vector<Pose2D>& poses) const {
   return world;
 }
 
-Crowd::Crowd(std::vector<Person> people, double yield_distance, double yield_width)
+Crowd::Crowd(std::vector<Person> people, double yield_distance, double yield_width, double yield_patience)
     : people_(std::move(people)),
       clocks_(people_.size(), 0.0),
       yielded_(people_.size(), 0.0),
+      standing_(people_.size(), 0.0),
       yield_distance_(yield_distance),
-      yield_width_(yield_width) {}
+      yield_width_(yield_width),
+      yield_patience_(yield_patience) {}
 
 void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
   if (!started_) {
@@ -262,9 +274,16 @@ void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
       const double across = std::abs(direction.x() * to_robot.y() - direction.y() * to_robot.x());
       if (along > 0.0 && along < yield_distance_ && across < yield_width_) {
         yielded_[i] += dt;
+        standing_[i] += dt;
+        // Both waiting for the other: the person gives way, back where they came from.
+        if (standing_[i] >= yield_patience_) {
+          clocks_[i] = people_[i].turnedBackAt(clocks_[i]);
+          standing_[i] = 0.0;
+        }
         continue;
       }
     }
+    standing_[i] = 0.0;
     clocks_[i] += dt;
   }
 }

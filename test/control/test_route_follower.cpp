@@ -470,6 +470,81 @@ TEST(RouteFollower, WaitsForSomeoneStandingInTheWay) {
               options.robot_radius, t);
 }
 
+// Someone standing beside the path, their body reaching 0.15 m into the corridor (the simulator's
+// visitor pausing by the room's route): the robot moves onto a lane beside them (pass_offset),
+// keeps most of its speed, never comes within its radius of them, and comes back to the route.
+// Without passing (pass_offset 0) the same robot crawls up to them and waits for good.
+TEST(RouteFollower, PassesSomeoneStandingBesideThePath) {
+  std::vector<Pose2D> goals;
+  for (int k = 0; k <= 10; ++k) goals.emplace_back(0.5 * k, 0.0, 0.0);  // 5 m straight
+  // A 0.3 x 0.5 m body centred 0.4 m right of the path at x = 2.5: its near edge 0.15 m off it.
+  const double near_edge = -0.15, far_edge = -0.65, front = 2.35, back = 2.65;
+  auto pointsOfPerson = [&](const Pose2D& robot) {
+    std::vector<Eigen::Vector2d> points;
+    auto add = [&](double x, double y) {
+      const double dx = x - robot.x, dy = y - robot.y;
+      points.emplace_back(std::cos(robot.yaw) * dx + std::sin(robot.yaw) * dy,
+                          -std::sin(robot.yaw) * dx + std::cos(robot.yaw) * dy);
+    };
+    for (double y = far_edge; y <= near_edge + 1e-9; y += 0.02) add(front, y);
+    for (double x = front; x <= back + 1e-9; x += 0.02) add(x, near_edge);
+    return points;
+  };
+  auto clearance = [&](const Pose2D& robot) {  // from the robot's centre to the body
+    const double dx = std::max({front - robot.x, 0.0, robot.x - back});
+    const double dy = std::max({far_edge - robot.y, 0.0, robot.y - near_edge});
+    return std::hypot(dx, dy);
+  };
+  struct Run {
+    bool finished = false;
+    double speed = 0.0;    // [m/s] mean from 1.35 m before the body to 0.85 m past it
+    double closest = 1e9;  // [m] from the robot's centre to the body
+    double end_offset = 0.0;  // [m] from the route's line at the end
+  };
+  auto drive = [&](const RouteFollowerOptions& options) {
+    RouteFollower follower(goals, options);
+    Pose2D pose(0.0, 0.0, 0.0);
+    const double dt = 0.05;
+    Run run;
+    double distance = 0.0, time_near = 0.0;
+    for (double t = 0.0; t < 40.0; t += dt) {
+      EXPECT_TRUE(follower.setFix(pose, t).isOk());
+      const FollowOutput out = follower.update(t, dt, pointsOfPerson(pose));
+      if (out.state == FollowState::kFinished) {
+        run.finished = true;
+        break;
+      }
+      EXPECT_EQ(out.state, FollowState::kFollowing) << out.reason;
+      const Pose2D next = integrate(pose, out.command, dt);
+      if (pose.x > 1.0 && pose.x < 3.5) {
+        distance += std::hypot(next.x - pose.x, next.y - pose.y);
+        time_near += dt;
+      }
+      run.closest = std::min(run.closest, clearance(pose));
+      pose = next;
+    }
+    run.speed = time_near > 0.0 ? distance / time_near : 0.0;
+    run.end_offset = pose.y;
+    return run;
+  };
+  RouteFollowerOptions options;
+  options.controller.goal_tolerance = 0.4;
+  const Run passing = drive(options);
+  EXPECT_TRUE(passing.finished);
+  EXPECT_GT(passing.closest, options.robot_radius);
+  EXPECT_GT(passing.speed, 0.6 * options.controller.max_linear_velocity);
+  EXPECT_LT(std::abs(passing.end_offset), 0.05);
+  RouteFollowerOptions waiting_options = options;
+  waiting_options.pass_offset = 0.0;
+  const Run waiting = drive(waiting_options);
+  EXPECT_FALSE(waiting.finished);
+  EXPECT_LT(waiting.speed, 0.3 * options.controller.max_linear_velocity);
+  std::printf("passing: %.2f m/s (limit %.2f), closest %.2f m to the body (radius %.2f), end %.3f m off the line; "
+              "without passing: %.2f m/s\n",
+              passing.speed, options.controller.max_linear_velocity, passing.closest, options.robot_radius,
+              passing.end_offset, waiting.speed);
+}
+
 // The obstacle parameters are checked: a slow gap not beyond the stop gap, a negative radius.
 TEST(RouteFollower, RefusesObstacleGapsOutOfOrder) {
   RouteFollowerOptions options;
@@ -480,5 +555,20 @@ TEST(RouteFollower, RefusesObstacleGapsOutOfOrder) {
   EXPECT_THROW(options.validate(), std::invalid_argument);
   options = RouteFollowerOptions();
   options.robot_radius = 0.0;  // off
+  EXPECT_NO_THROW(options.validate());
+  // Passing beside: a negative or NaN offset or clearance, a lookahead that is not positive.
+  for (const double bad : {-0.1, std::nan("")}) {
+    options = RouteFollowerOptions();
+    options.pass_offset = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument);
+    options = RouteFollowerOptions();
+    options.pass_clearance = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument);
+  }
+  options = RouteFollowerOptions();
+  options.pass_lookahead = 0.0;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+  options = RouteFollowerOptions();
+  options.pass_offset = 0.0;  // never passes
   EXPECT_NO_THROW(options.validate());
 }

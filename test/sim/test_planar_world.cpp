@@ -538,6 +538,26 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   for (int k = 0; k < 200; ++k) crosser.advance(k * dt, dt, Eigen::Vector2d(2.4, -0.1));
   EXPECT_NEAR(crosser.poses()[0].y, 0.1 - 2.0, 1e-6);
   EXPECT_NEAR(crosser.yieldedSeconds(0), 0.0, 1e-12);
+  // A robot standing in their way for good: with a patience of 2 s they stand 2 s, then turn back
+  // (walking back the way they came, away from the robot) instead of standing there for ever.
+  Crowd patient({walker}, 1.0, 0.55, 2.0);
+  for (i = 0; i < 500; ++i) patient.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
+  EXPECT_NEAR(patient.yieldedSeconds(0), 2.0, 0.02);
+  EXPECT_NEAR(patient.poses()[0].x, 2.0 - 1.0, 0.02);  // 1 s walking back from x = 2
+  EXPECT_NEAR(std::abs(patient.poses()[0].yaw), M_PI, 1e-9);
+  // Turned back at every point of the way, both legs: the same place, the other direction.
+  Person paused = walker;
+  paused.pause_at_start = 1.0;
+  paused.pause_at_end = 2.0;
+  paused.start_time = 0.5;
+  for (const double time : {0.7, 3.0, 6.4, 9.0, 12.5, 20.0}) {
+    const Pose2D before = paused.poseAt(time), after = paused.poseAt(paused.turnedBackAt(time));
+    EXPECT_NEAR(after.x, before.x, 1e-9) << time;
+    const bool pausing = paused.turnedBackAt(time) == time;
+    if (!pausing) {
+      EXPECT_NEAR(std::abs(wrapToPi(after.yaw - before.yaw)), M_PI, 1e-9) << time;
+    }
+  }
 }
 
 // A box lower than the camera is a partial occluder: the camera sees over it to the wall behind,

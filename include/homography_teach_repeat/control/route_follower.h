@@ -91,7 +91,8 @@ struct RouteFollowerOptions {
   double lost_search_angle = 0.6;
   double lost_search_velocity = 0.3;
   // Something in the way (a person, a box; the obstacle points of update()): in the corridor
-  // ahead of the base as wide as 2 robot_radius [m, > 0], the forward velocity is capped at
+  // ahead of the base as wide as 2 robot_radius [m, > 0] (along the lane while passing beside, see
+  // below), the forward velocity is capped at
   // max_linear_velocity · (gap − obstacle_stop_gap) / (obstacle_slow_gap − obstacle_stop_gap),
   // clamped to [0, 1], where gap is the free distance in front of the robot's radius [m]: the robot
   // slows down, stops obstacle_stop_gap [m, >= 0] short of it and waits (turning is still allowed),
@@ -100,6 +101,15 @@ struct RouteFollowerOptions {
   double robot_radius = 0.3;
   double obstacle_stop_gap = 0.25;
   double obstacle_slow_gap = 0.8;
+  // Passing beside (docs/nodes/controller_node.md): where something stands in the way on a
+  // straight stretch but leaves a lane within pass_offset [m, >= 0; 0: never, the robot waits] of
+  // the route's line, the robot aims along that lane, pass_clearance [m, >= 0] beyond its radius
+  // from everything beside it, until it has passed, then comes back to the line. The lane nearest
+  // the line wins; the side chosen is kept while it stays free.
+  // It drives onto the lane by pure pursuit of the lane's point pass_lookahead [m, > 0] ahead.
+  double pass_offset = 0.25;
+  double pass_clearance = 0.1;
+  double pass_lookahead = 0.6;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -151,8 +161,10 @@ class RouteFollower {
   FollowOutput stop(FollowState state, const std::string& reason);  // zero command, controller at rest
   FollowOutput report(FollowState state, const std::string& reason) const;  // the output without a command
   FollowOutput following(const VelocityCommand& command, double distance, const std::string& reason = "") const;
-  // The forward velocity cap for the obstacle points in the corridor ahead (robot_radius), and why.
-  double obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, std::string* reason) const;
+  struct Lane;
+  // The forward velocity cap for the obstacle points in the corridor ahead (robot_radius either
+  // side of the base's heading, or of `lane` while passing), and why.
+  double obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, const Lane* lane, std::string* reason) const;
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
   int lapOf(std::size_t position) const;
@@ -163,6 +175,16 @@ class RouteFollower {
   double toleranceOf(std::size_t position) const;
   // The route's length beyond the goal at `position` while it runs straight on (straight_leg_angle).
   double straightRunAfter(std::size_t position) const;
+  // Passing beside (pass_offset): the route's line from the previous goal to the current one and
+  // the lane along it to drive for these obstacle points (robot frame); none when the line is
+  // free, when no lane within pass_offset is, or on a turn in place.
+  struct Lane {
+    Eigen::Vector2d origin, along, left;  // the previous goal, the line's direction, its left
+    double robot_along = 0.0;             // [m] of the robot along the line
+    double robot_lateral = 0.0;           // [m] of the robot from the line, + left
+    double offset = 0.0;                  // [m] of the lane, + left
+  };
+  std::optional<Lane> passingLane(const std::vector<Eigen::Vector2d>& obstacles);
   // The fix carried to `now` on the odometry, or the fix itself; `limit`: the age allowed.
   Pose2D currentPose(double now, double* limit) const;
 
@@ -182,6 +204,7 @@ class RouteFollower {
   double stamp_ = 0.0;
   OdometryBuffer odometry_;  // the last carried_pose_timeout + 1 s, interpolated at the fix's stamp
   double heading_offset_ = 0.0;
+  double pass_lane_ = 0.0;  // the lane passingLane() chose last [m]
   PoseTrust trust_ = PoseTrust::kOk;
   std::string trust_reason_;
   bool search_helps_ = true;

@@ -49,6 +49,7 @@
 #include <opencv2/core.hpp>
 
 #include <optional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -113,6 +114,9 @@ struct Person {
   // Where the person stands at simulated time `time` [s] (x, y) and which way they face (yaw:
   // the direction of the leg they are on, or last walked).
   Pose2D poseAt(double time) const;
+  // A time at which the person stands where they stand at `time` but walks the other way (their
+  // path's other leg); `time` itself while they pause at an end or have not started.
+  double turnedBackAt(double time) const;
 };
 
 // Distance [m] from `point` to the footprint of a box centred at (pose.x, pose.y), `length` along
@@ -172,7 +176,10 @@ struct PlanarWorld {
 // still has to stop for someone standing in its way.
 class Crowd {
  public:
-  Crowd(std::vector<Person> people, double yield_distance, double yield_width);
+  // Someone who has stood `yield_patience` [s] in a row for the robot turns back (the robot is
+  // waiting for them too: neither would ever move).
+  Crowd(std::vector<Person> people, double yield_distance, double yield_width,
+        double yield_patience = std::numeric_limits<double>::infinity());
   // From `time` to `time + dt` [simulated s], the robot's centre at `robot`.
   void advance(double time, double dt, const Eigen::Vector2d& robot);
   std::vector<Pose2D> poses() const;
@@ -183,8 +190,10 @@ class Crowd {
   std::vector<Person> people_;
   std::vector<double> clocks_;
   std::vector<double> yielded_;
+  std::vector<double> standing_;  // [s] stood for the robot in a row
   double yield_distance_;
   double yield_width_;
+  double yield_patience_;
   bool started_ = false;
 };
 

@@ -90,7 +90,11 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
     throw std::runtime_error("parameters '" + p.resolveName("people_yield_distance") + "' and '" +
                              p.resolveName("people_yield_width") + "' must be >= 0");
   }
-  if (!world_.people.empty()) crowd_.emplace(world_.people, yield_distance, yield_width);
+  const double yield_patience = readParameter(p, "people_yield_patience", 3.0);
+  if (!(yield_patience > 0.0)) {  // NaN too; +inf: never turn back
+    throw std::runtime_error("parameter '" + p.resolveName("people_yield_patience") + "' must be > 0");
+  }
+  if (!world_.people.empty()) crowd_.emplace(world_.people, yield_distance, yield_width, yield_patience);
 
   physics_rate_ = readParameter(p, "physics_rate", physics_rate_);
   camera_rate_ = readParameter(p, "camera_rate", camera_rate_);
