@@ -248,14 +248,12 @@ PlanarWorld PlanarWorld::withPeople(const std::vector<Pose2D>& poses) const {
   return world;
 }
 
-Crowd::Crowd(std::vector<Person> people, double yield_distance, double yield_width, double yield_patience)
+Crowd::Crowd(std::vector<Person> people, const CrowdOptions& options)
     : people_(std::move(people)),
       clocks_(people_.size(), 0.0),
       yielded_(people_.size(), 0.0),
       standing_(people_.size(), 0.0),
-      yield_distance_(yield_distance),
-      yield_width_(yield_width),
-      yield_patience_(yield_patience) {}
+      options_(options) {}
 
 void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
   if (!started_) {
@@ -272,11 +270,11 @@ void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
       const Eigen::Vector2d direction = step.normalized();
       const double along = direction.dot(to_robot);
       const double across = std::abs(direction.x() * to_robot.y() - direction.y() * to_robot.x());
-      if (along > 0.0 && along < yield_distance_ && across < yield_width_) {
+      if (along > 0.0 && along < options_.yield_distance && across < options_.yield_width) {
         yielded_[i] += dt;
         standing_[i] += dt;
         // Both waiting for the other: the person gives way, back where they came from.
-        if (standing_[i] >= yield_patience_) {
+        if (standing_[i] >= options_.yield_patience) {
           clocks_[i] = people_[i].turnedBackAt(clocks_[i]);
           standing_[i] = 0.0;
         }

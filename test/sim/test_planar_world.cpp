@@ -518,7 +518,7 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   walker.path = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(6.0, 0.0)};
   walker.speed = 1.0;
   const double dt = 0.01;
-  Crowd crowd({walker}, 1.0, 0.55);
+  Crowd crowd({walker}, CrowdOptions{1.0, 0.55});
   int i = 0;
   for (; i < 500; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
   EXPECT_NEAR(crowd.poses()[0].x, 2.0, 0.011);  // stood 1 m before the robot
@@ -526,7 +526,7 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   for (; i < 700; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 5.0));  // the robot went
   EXPECT_NEAR(crowd.poses()[0].x, 4.0, 0.011);
   // Passing 0.7 m beside the robot: walks on.
-  Crowd passer({walker}, 1.0, 0.55);
+  Crowd passer({walker}, CrowdOptions{1.0, 0.55});
   for (int k = 0; k < 500; ++k) passer.advance(k * dt, dt, Eigen::Vector2d(3.0, 0.7));
   EXPECT_NEAR(passer.yieldedSeconds(0), 0.0, 1e-12);
   EXPECT_NEAR(passer.poses()[0].x, 5.0, 0.011);
@@ -534,13 +534,13 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   // 0.6 m beside their own way): they walk on out of its way instead of both waiting for ever.
   Person crossing = walker;
   crossing.path = {Eigen::Vector2d(3.0, 0.1), Eigen::Vector2d(3.0, -2.0)};
-  Crowd crosser({crossing}, 1.0, 0.55);
+  Crowd crosser({crossing}, CrowdOptions{1.0, 0.55});
   for (int k = 0; k < 200; ++k) crosser.advance(k * dt, dt, Eigen::Vector2d(2.4, -0.1));
   EXPECT_NEAR(crosser.poses()[0].y, 0.1 - 2.0, 1e-6);
   EXPECT_NEAR(crosser.yieldedSeconds(0), 0.0, 1e-12);
   // A robot standing in their way for good: with a patience of 2 s they stand 2 s, then turn back
   // (walking back the way they came, away from the robot) instead of standing there for ever.
-  Crowd patient({walker}, 1.0, 0.55, 2.0);
+  Crowd patient({walker}, CrowdOptions{1.0, 0.55, 2.0});
   for (i = 0; i < 500; ++i) patient.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
   EXPECT_NEAR(patient.yieldedSeconds(0), 2.0, 0.02);
   EXPECT_NEAR(patient.poses()[0].x, 2.0 - 1.0, 0.02);  // 1 s walking back from x = 2

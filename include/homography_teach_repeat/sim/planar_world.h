@@ -174,12 +174,19 @@ struct PlanarWorld {
 // (within `yield_distance` [m] along the way they walk and `yield_width` [m] across it): then they
 // stand and let it pass, as people do. Someone who would pass beside the robot walks on; the robot
 // still has to stop for someone standing in its way.
+// How people give way to the robot (Crowd): a person stands while the robot's centre is in their
+// lane ahead, within yield_distance [m] along the way they walk and yield_width [m] across it, and
+// after standing yield_patience [s] in a row for it (the robot may be waiting for them too:
+// neither would ever move) turns back the way they came.
+struct CrowdOptions {
+  double yield_distance = 1.0;
+  double yield_width = 0.55;
+  double yield_patience = std::numeric_limits<double>::infinity();
+};
+
 class Crowd {
  public:
-  // Someone who has stood `yield_patience` [s] in a row for the robot turns back (the robot is
-  // waiting for them too: neither would ever move).
-  Crowd(std::vector<Person> people, double yield_distance, double yield_width,
-        double yield_patience = std::numeric_limits<double>::infinity());
+  Crowd(std::vector<Person> people, const CrowdOptions& options);
   // From `time` to `time + dt` [simulated s], the robot's centre at `robot`.
   void advance(double time, double dt, const Eigen::Vector2d& robot);
   std::vector<Pose2D> poses() const;
@@ -191,9 +198,7 @@ class Crowd {
   std::vector<double> clocks_;
   std::vector<double> yielded_;
   std::vector<double> standing_;  // [s] stood for the robot in a row
-  double yield_distance_;
-  double yield_width_;
-  double yield_patience_;
+  CrowdOptions options_;
   bool started_ = false;
 };
 

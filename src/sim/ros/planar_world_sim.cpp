@@ -94,7 +94,7 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   if (!(yield_patience > 0.0)) {  // NaN too; +inf: never turn back
     throw std::runtime_error("parameter '" + p.resolveName("people_yield_patience") + "' must be > 0");
   }
-  if (!world_.people.empty()) crowd_.emplace(world_.people, yield_distance, yield_width, yield_patience);
+  if (!world_.people.empty()) crowd_.emplace(world_.people, CrowdOptions{yield_distance, yield_width, yield_patience});
 
   physics_rate_ = readParameter(p, "physics_rate", physics_rate_);
   camera_rate_ = readParameter(p, "camera_rate", camera_rate_);
