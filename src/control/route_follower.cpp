@@ -301,7 +301,6 @@ double RouteFollower::obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obs
   const double r = options_.robot_radius;
   if (!(r > 0.0)) return v_max;
   double gap = std::numeric_limits<double>::infinity();
-  const double c = std::cos(pose_.yaw), s = std::sin(pose_.yaw);
   for (const Eigen::Vector2d& o : obstacles) {
     if (lane == nullptr) {  // straight ahead of the base
       if (o.x() > 0.0 && std::abs(o.y()) < r) gap = std::min(gap, o.x() - r);
@@ -310,9 +309,8 @@ double RouteFollower::obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obs
     // Passing beside: everything the base sweeps moving over from where it is to the lane and
     // along it (a person stepping towards the route while the robot has not yet moved over is in
     // its way: the gallery's visitor came within 0.18 m when only the lane itself was checked).
-    const Eigen::Vector2d w = Eigen::Vector2d(pose_.x, pose_.y) + Eigen::Vector2d(c * o.x() - s * o.y(), s * o.x() + c * o.y());
-    const double ahead = (w - lane->origin).dot(lane->along) - lane->robot_along;
-    const double lateral = (w - lane->origin).dot(lane->left);
+    const Eigen::Vector2d at = lane->coordinates(pose_.transformPoint(o));
+    const double ahead = at.x(), lateral = at.y();
     const double low = std::min(lane->robot_lateral, lane->offset) - r, high = std::max(lane->robot_lateral, lane->offset) + r;
     if (ahead > 0.0 && lateral > low && lateral < high) gap = std::min(gap, ahead - r);
   }
@@ -336,20 +334,18 @@ std::optional<RouteFollower::Lane> RouteFollower::passingLane(const std::vector<
   if (lane.along.norm() < options_.corner_radius) return std::nullopt;  // a turn in place
   lane.along.normalize();
   lane.left = Eigen::Vector2d(-lane.along.y(), lane.along.x());
-  const Eigen::Vector2d robot(pose_.x, pose_.y);
-  lane.robot_along = (robot - lane.origin).dot(lane.along);
-  lane.robot_lateral = (robot - lane.origin).dot(lane.left);
-  const double c = std::cos(pose_.yaw), s = std::sin(pose_.yaw);
+  const Eigen::Vector2d robot_at = lane.coordinates(Eigen::Vector2d(pose_.x, pose_.y));  // robot_along still 0
+  lane.robot_along = robot_at.x();
+  lane.robot_lateral = robot_at.y();
   // The lateral offsets from the route's line of the points the robot passes from here to the end
   // of its slow-down distance and the lookahead (it moves over before it has to slow down).
   std::vector<double> beside;
   bool on_the_line = false;
   const double clearance = r + options_.pass_clearance;
   for (const Eigen::Vector2d& o : obstacles) {
-    const Eigen::Vector2d w = robot + Eigen::Vector2d(c * o.x() - s * o.y(), s * o.x() + c * o.y());
-    const double ahead = (w - lane.origin).dot(lane.along) - lane.robot_along;
+    const Eigen::Vector2d at = lane.coordinates(pose_.transformPoint(o));
+    const double ahead = at.x(), lateral = at.y();
     if (ahead < -r || ahead > 2.0 * r + options_.obstacle_slow_gap + options_.pass_lookahead) continue;
-    const double lateral = (w - lane.origin).dot(lane.left);
     beside.push_back(lateral);
     on_the_line = on_the_line || std::abs(lateral) < clearance;
   }

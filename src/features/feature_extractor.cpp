@@ -126,6 +126,18 @@ Expected<cv::Mat> toGray8(const cv::Mat& image) {
   }
 }
 
+ImageFeatures selectFeatures(const ImageFeatures& features, const std::vector<int>& indices) {
+  ImageFeatures kept;
+  kept.type = features.type;
+  kept.keypoints.reserve(indices.size());
+  kept.descriptors.create(static_cast<int>(indices.size()), features.descriptors.cols, features.descriptors.type());
+  for (std::size_t row = 0; row < indices.size(); ++row) {
+    kept.keypoints.push_back(features.keypoints[static_cast<std::size_t>(indices[row])]);
+    features.descriptors.row(indices[row]).copyTo(kept.descriptors.row(static_cast<int>(row)));
+  }
+  return kept;
+}
+
 Expected<ImageFeatures> FeatureExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
   const auto gray = toGray8(image);
   if (!gray) return gray.status();
@@ -144,16 +156,7 @@ Expected<ImageFeatures> FeatureExtractor::extract(const cv::Mat& image, const cv
              features.keypoints[static_cast<std::size_t>(b)].response;
     });
     order.resize(static_cast<std::size_t>(options_.max_features));
-    ImageFeatures kept;
-    kept.type = features.type;
-    kept.descriptors.create(options_.max_features, features.descriptors.cols,
-                            features.descriptors.type());
-    for (int row = 0; row < options_.max_features; ++row) {
-      const int source = order[static_cast<std::size_t>(row)];
-      kept.keypoints.push_back(features.keypoints[static_cast<std::size_t>(source)]);
-      features.descriptors.row(source).copyTo(kept.descriptors.row(row));
-    }
-    return kept;
+    return selectFeatures(features, order);
   }
   return features;
 }

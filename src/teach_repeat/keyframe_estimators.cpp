@@ -49,17 +49,23 @@ class PointEstimator : public KeyframeEstimator {
                                     const std::optional<Pose2D>& /*predicted_pose*/) const override {
     const auto dmatches = matchFeatures(reference.features, frame.features, context_.options.matching);
     if (!dmatches) return dmatches.status();
-    auto estimate = estimateFromMatches(reference, keyframe, toPointMatches(reference.features, frame.features, *dmatches));
-    if (estimate) {
-      // Which of the frame's features the inliers are (estimateFromMatches leaves their indices
-      // into the matches there).
-      for (int& i : estimate->inlier_features) i = (*dmatches)[static_cast<std::size_t>(i)].trainIdx;
-    }
-    return estimate;
+    std::vector<int> frame_feature;  // of each match
+    frame_feature.reserve(dmatches->size());
+    for (const cv::DMatch& m : *dmatches) frame_feature.push_back(m.trainIdx);
+    return estimateFrom(reference, keyframe, toPointMatches(reference.features, frame.features, *dmatches),
+                        &frame_feature);
   }
 
   Expected<RepeatEstimate> estimateFromMatches(const KeyframeReference& reference, int keyframe,
                                                const PointMatches& measured) const override {
+    return estimateFrom(reference, keyframe, measured, nullptr);
+  }
+
+ private:
+  // `frame_feature` (optional): the frame's feature index of each match, for
+  // RepeatEstimate::inlier_features.
+  Expected<RepeatEstimate> estimateFrom(const KeyframeReference& reference, int keyframe, const PointMatches& measured,
+                                        const std::vector<int>* frame_feature) const {
     std::vector<int> kept;  // index in `measured` of each undistorted match
     const PointMatches matches = undistortMatches(context_.camera, measured, &kept);
     RepeatEstimate estimate;
@@ -74,7 +80,7 @@ class PointEstimator : public KeyframeEstimator {
     for (const int i : inliers) {
       const int match = kept[static_cast<std::size_t>(i)];
       estimate.inlier_matches.push_back(measured[static_cast<std::size_t>(match)]);
-      estimate.inlier_features.push_back(match);  // an index into `measured` until estimate() maps it
+      if (frame_feature) estimate.inlier_features.push_back((*frame_feature)[static_cast<std::size_t>(match)]);
     }
     if (estimate.inliers < context_.options.min_inliers) {
       return Status(StatusCode::kNoConsensus, std::to_string(estimate.inliers) + " inliers against keyframe " +

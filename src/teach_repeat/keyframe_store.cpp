@@ -227,13 +227,7 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
     // Too few: a pure rotation to the neighbour maps every feature alike, or the neighbour shows
     // little of this plane; keep every feature then.
     if (static_cast<int>(on_plane.size()) < 2 * options.min_inliers) continue;
-    ImageFeatures subset;
-    subset.type = reference.features.type;
-    for (const int i : on_plane) {
-      subset.keypoints.push_back(reference.features.keypoints[static_cast<std::size_t>(i)]);
-      subset.descriptors.push_back(reference.features.descriptors.row(i));
-    }
-    reference.features = std::move(subset);
+    reference.features = selectFeatures(reference.features, on_plane);
   }
 }
 

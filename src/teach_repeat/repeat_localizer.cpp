@@ -178,11 +178,7 @@ void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const Re
     // nearer or farther than the plane gives a homography that the plane's distance scales into
     // a wrong pose passing every check (the simulator's room, a shelf before the west wall: 7 cm
     // off claiming 7 mm; docs/reliability.md, "Temporary reference").
-    current.features.type = frame.features.type;
-    for (const int i : estimate.inlier_features) {
-      current.features.keypoints.push_back(frame.features.keypoints[static_cast<std::size_t>(i)]);
-      current.features.descriptors.push_back(frame.features.descriptors.row(i));
-    }
+    current.features = selectFeatures(frame.features, estimate.inlier_features);
   } else {
     current.features = std::move(frame.features);
   }
@@ -221,7 +217,6 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray
   timing_.references_ms = millisecondsSince(references_start);
   if (!estimate) return estimate;
   estimate->tracked = true;
-  estimate->inlier_features.clear();  // indices into the tracked matches, not into detected features
   const Status verdict = vet(check, *estimate);
   if (!verdict.isOk()) return verdict;
   timing_.tracked = true;

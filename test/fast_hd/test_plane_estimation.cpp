@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include <Eigen/Geometry>
@@ -29,6 +30,24 @@ std::vector<Eigen::Vector2d> referencePixels(const ScenePlane& plane, const Plan
 void expectPlaneNear(const ScenePlane& actual, const ScenePlane& expected, double tolerance) {
   EXPECT_LT((actual.normal - expected.normal).norm(), tolerance);
   EXPECT_NEAR(actual.distance, expected.distance, tolerance);
+}
+
+// The pairs of consecutive cameras (poses in the frame of camera 0) with their exact odometry and
+// the homography of the wall `wall_of_pair(k)` (in that frame) that pair k sees.
+std::vector<ReferencePair> odometryPairs(const std::vector<PlanarPose>& cameras,
+                                         const std::function<ScenePlane(std::size_t)>& wall_of_pair) {
+  std::vector<ReferencePair> pairs;
+  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
+    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
+    const auto seen = transferPlane(wall_of_pair(k), cameras[k]);
+    EXPECT_TRUE(seen.isOk()) << k;
+    ReferencePair pair;
+    if (seen) pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *seen);
+    pair.has_odometry = true;
+    pair.odometry_motion = motion;
+    pairs.push_back(pair);
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -195,18 +214,7 @@ TEST(PlaneEstimation, PlanesFromOdometryAcrossTwoWalls) {
   std::vector<PlanarPose> cameras = {PlanarPose(0, 0, 0), PlanarPose(0, 0.5, 0), PlanarPose(0, 1.0, 0),
                                      PlanarPose(0, 1.0, M_PI / 4), PlanarPose(0, 1.0, M_PI / 2),
                                      PlanarPose(-0.5, 1.0, M_PI / 2), PlanarPose(-1.0, 1.0, M_PI / 2)};
-  std::vector<ReferencePair> pairs;
-  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
-    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
-    const bool second_wall = k >= 3;
-    const auto plane_k = transferPlane(second_wall ? wall_b : wall_a, cameras[k]);
-    ASSERT_TRUE(plane_k.isOk());
-    ReferencePair pair;
-    pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *plane_k);
-    pair.has_odometry = true;
-    pair.odometry_motion = motion;
-    pairs.push_back(pair);
-  }
+  std::vector<ReferencePair> pairs = odometryPairs(cameras, [&](std::size_t k) { return k >= 3 ? wall_b : wall_a; });
   pairs[1].has_homography = false;  // a failed pair: filled by transfer
   const auto result = estimatePlanesFromOdometry(pairs, mathCamera());
   ASSERT_TRUE(result.isOk()) << result.status().toString();
@@ -230,17 +238,7 @@ TEST(PlaneEstimation, AKeyframeBeforeATurnTakesTheStraighterPair) {
   const std::vector<PlanarPose> cameras = {PlanarPose(0, 0, 0), PlanarPose(0, 0.5, 0), PlanarPose(0, 1.0, 0),
                                            PlanarPose(0.1, 1.5, 0.4), PlanarPose(0.3, 1.9, 0.8)};
   const ScenePlane misread{Eigen::Vector3d(std::sin(0.087), 0.0, std::cos(0.087)), 5.0};
-  std::vector<ReferencePair> pairs;
-  for (std::size_t k = 0; k + 1 < cameras.size(); ++k) {
-    const PlanarPose motion = cameras[k].inverse().compose(cameras[k + 1]);
-    const auto seen = transferPlane(k == 2 ? misread : wall, cameras[k]);
-    ASSERT_TRUE(seen.isOk());
-    ReferencePair pair;
-    pair.H_next_from_current = planeInducedHomography(mathCamera(), motion, *seen);
-    pair.has_odometry = true;
-    pair.odometry_motion = motion;
-    pairs.push_back(pair);
-  }
+  const std::vector<ReferencePair> pairs = odometryPairs(cameras, [&](std::size_t k) { return k == 2 ? misread : wall; });
   const auto truth = transferPlane(wall, cameras[2]);
   const auto misread_at_2 = transferPlane(misread, cameras[2]);
   ASSERT_TRUE(truth.isOk() && misread_at_2.isOk());

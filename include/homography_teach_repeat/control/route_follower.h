@@ -183,6 +183,11 @@ class RouteFollower {
     double robot_along = 0.0;             // [m] of the robot along the line
     double robot_lateral = 0.0;           // [m] of the robot from the line, + left
     double offset = 0.0;                  // [m] of the lane, + left
+    // A world point's distance ahead of the robot along the line and its offset left of the line [m].
+    Eigen::Vector2d coordinates(const Eigen::Vector2d& world) const {
+      const Eigen::Vector2d d = world - origin;
+      return Eigen::Vector2d(d.dot(along) - robot_along, d.dot(left));
+    }
   };
   std::optional<Lane> passingLane(const std::vector<Eigen::Vector2d>& obstacles);
   // The fix carried to `now` on the odometry, or the fix itself; `limit`: the age allowed.

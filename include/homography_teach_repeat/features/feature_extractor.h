@@ -55,6 +55,9 @@ class FeatureExtractor {
   cv::Ptr<cv::Feature2D> detector_;
 };
 
+// The features at `indices` (in that order; each a valid index), of the same type.
+ImageFeatures selectFeatures(const ImageFeatures& features, const std::vector<int>& indices);
+
 // Converts an 8-bit grey/BGR/BGRA image to grey; kInvalidInput for anything else.
 Expected<cv::Mat> toGray8(const cv::Mat& image);
 
