@@ -255,34 +255,53 @@ Crowd::Crowd(std::vector<Person> people, const CrowdOptions& options)
       standing_(people_.size(), 0.0),
       options_(options) {}
 
-void Crowd::advance(double time, double dt, const Eigen::Vector2d& robot) {
+void Crowd::advance(double time, double dt, const Pose2D& robot) {
   if (!started_) {
     std::fill(clocks_.begin(), clocks_.end(), time);
+    previous_robot_ = robot;
     started_ = true;
   }
+  const Eigen::Vector2d robot_position(robot.x, robot.y);
+  const Eigen::Vector2d robot_heading(std::cos(robot.yaw), std::sin(robot.yaw));
+  // Below this [m/s] the robot counts as standing: people cross in front of a robot that waits.
+  constexpr double kRobotMoving = 0.05;
+  const bool robot_moving =
+      dt > 0.0 && robot_heading.dot(robot_position - Eigen::Vector2d(previous_robot_.x, previous_robot_.y)) > kRobotMoving * dt;
+  previous_robot_ = robot;
+  const double width = options_.yield_width;
   for (std::size_t i = 0; i < people_.size(); ++i) {
     const Pose2D now = people_[i].poseAt(clocks_[i]);
     const Pose2D next = people_[i].poseAt(clocks_[i] + dt);
-    // Stands while the robot is in their lane ahead: within yield_distance along the way they walk
-    // and yield_width across it. Someone who would pass beside the robot walks on.
-    const Eigen::Vector2d step(next.x - now.x, next.y - now.y), to_robot(robot.x() - now.x, robot.y() - now.y);
+    const Eigen::Vector2d step(next.x - now.x, next.y - now.y), to_robot = robot_position - Eigen::Vector2d(now.x, now.y);
+    bool stands = false;
     if (step.norm() > 0.0) {
+      // Would walk into the robot: it is in their lane ahead.
       const Eigen::Vector2d direction = step.normalized();
       const double along = direction.dot(to_robot);
       const double across = std::abs(direction.x() * to_robot.y() - direction.y() * to_robot.x());
-      if (along > 0.0 && along < options_.yield_distance && across < options_.yield_width) {
-        yielded_[i] += dt;
-        standing_[i] += dt;
-        // Both waiting for the other: the person gives way, back where they came from.
-        if (standing_[i] >= options_.yield_patience) {
-          clocks_[i] = people_[i].turnedBackAt(clocks_[i]);
-          standing_[i] = 0.0;
-        }
-        continue;
-      }
+      stands = along > 0.0 && along < options_.yield_distance && across < width;
+      // Would step into the path of the robot driving towards them: wait at its edge.
+      const double ahead_of_robot = -robot_heading.dot(to_robot);
+      const auto beside_path = [&](const Eigen::Vector2d& point) {
+        const Eigen::Vector2d from_robot = point - robot_position;
+        return std::abs(robot_heading.x() * from_robot.y() - robot_heading.y() * from_robot.x());
+      };
+      stands = stands || (robot_moving && ahead_of_robot > -width && ahead_of_robot < options_.yield_distance + width &&
+                          beside_path(Eigen::Vector2d(now.x, now.y)) >= width &&
+                          beside_path(Eigen::Vector2d(next.x, next.y)) < width);
     }
-    standing_[i] = 0.0;
-    clocks_[i] += dt;
+    if (!stands) {
+      standing_[i] = 0.0;
+      clocks_[i] += dt;
+      continue;
+    }
+    yielded_[i] += dt;
+    standing_[i] += dt;
+    // Both waiting for the other: the person gives way, back where they came from.
+    if (standing_[i] >= options_.yield_patience) {
+      clocks_[i] = people_[i].turnedBackAt(clocks_[i]);
+      standing_[i] = 0.0;
+    }
   }
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/eval/path_deviation.h"
@@ -543,6 +545,134 @@ TEST(RouteFollower, PassesSomeoneStandingBesideThePath) {
               "without passing: %.2f m/s\n",
               passing.speed, options.controller.max_linear_velocity, passing.closest, options.robot_radius,
               passing.end_offset, waiting.speed);
+}
+
+// Turning out of a corner, the corridor follows the arc the robot drives: someone standing 0.65 m
+// beside the new leg, straight ahead of the robot while it is still turning (the room's guard), does
+// not hold it back; someone on the new leg does.
+TEST(RouteFollower, TurnsOutOfACornerPastSomeoneBesideTheNextLeg) {
+  std::vector<Pose2D> goals;
+  for (int k = 0; k <= 4; ++k) goals.emplace_back(0.5 * k, 0.0, 0.0);
+  goals.emplace_back(2.0, 0.0, M_PI_4);  // the teach run turned in place here
+  for (int k = 0; k <= 6; ++k) goals.emplace_back(2.0, 0.5 * k, M_PI_2);
+  struct Box {
+    double x0, x1, y0, y1;
+  };
+  auto pointsOf = [](const Box& box, const Pose2D& robot) {
+    std::vector<Eigen::Vector2d> points;
+    auto add = [&](double x, double y) {
+      const double dx = x - robot.x, dy = y - robot.y;
+      points.emplace_back(std::cos(robot.yaw) * dx + std::sin(robot.yaw) * dy,
+                          -std::sin(robot.yaw) * dx + std::cos(robot.yaw) * dy);
+    };
+    for (double x = box.x0; x <= box.x1 + 1e-9; x += 0.02) {
+      add(x, box.y0);
+      add(x, box.y1);
+    }
+    for (double y = box.y0; y <= box.y1 + 1e-9; y += 0.02) {
+      add(box.x0, y);
+      add(box.x1, y);
+    }
+    return points;
+  };
+  auto clearance = [](const Box& box, const Pose2D& robot) {
+    return std::hypot(std::max({box.x0 - robot.x, 0.0, robot.x - box.x1}), std::max({box.y0 - robot.y, 0.0, robot.y - box.y1}));
+  };
+  // [s] from the corner (x > 1.9) until 1 m up the next leg; closest [m] to the body, [s] held back
+  // for something in the way.
+  double off_route = 0.0;  // [m] the farthest from the route's two legs in the last run
+  auto drive = [&](const std::optional<Box>& box, double* closest, double* held_back) {
+    off_route = 0.0;
+    RouteFollowerOptions options;
+    options.controller.goal_tolerance = 0.2;
+    RouteFollower follower(goals, options);
+    Pose2D pose(0.0, 0.0, 0.0);
+    const double dt = 0.05;
+    double since_corner = -1.0;
+    *closest = 1e9;
+    *held_back = 0.0;
+    for (double t = 0.0; t < 60.0; t += dt) {
+      EXPECT_TRUE(follower.setFix(pose, t).isOk());
+      const FollowOutput out = follower.update(t, dt, box ? pointsOf(*box, pose) : std::vector<Eigen::Vector2d>{});
+      if (out.state == FollowState::kFinished || pose.y > 1.0) break;
+      if (since_corner < 0.0 && pose.x > 1.9) since_corner = 0.0;
+      if (since_corner >= 0.0) since_corner += dt;
+      if (box) *closest = std::min(*closest, clearance(*box, pose));
+      if (out.reason.find("in the way") != std::string::npos) *held_back += dt;
+      off_route = std::max(off_route, std::min(pose.x < 2.0 ? std::abs(pose.y) : std::hypot(pose.x - 2.0, std::min(pose.y, 0.0)),
+                                               pose.y > 0.0 ? std::abs(pose.x - 2.0) : std::hypot(pose.x - 2.0, pose.y)));
+      pose = integrate(pose, out.command, dt);
+    }
+    return pose.y > 1.0 ? since_corner : std::numeric_limits<double>::infinity();
+  };
+  double closest = 0.0, held_back = 0.0;
+  const double free_way = drive(std::nullopt, &closest, &held_back);
+  const double beside = drive(Box{2.5, 2.8, 0.85, 1.35}, &closest, &held_back);  // 0.65 m east of the leg
+  const RouteFollowerOptions defaults;
+  EXPECT_GT(closest, defaults.robot_radius);
+  EXPECT_LT(held_back, 1.0);  // the corridor straight ahead held it back 2.0 s
+  EXPECT_LT(beside, free_way + 1.5);
+  const double beside_held_back = held_back;
+  // Someone just clear of the next leg's line (0.39 m), beside the robot's own band as it turns: the
+  // nearest free lane is the line itself, and the robot still turns in place onto it first (it once
+  // drove the lane's pure pursuit from the corner and looped 0.4 m off the route).
+  const double just_clear = drive(Box{2.39, 2.69, 0.85, 1.35}, &closest, &held_back);
+  EXPECT_TRUE(std::isfinite(just_clear));
+  EXPECT_GT(closest, defaults.robot_radius);
+  const double just_clear_off_route = off_route;
+  EXPECT_LT(just_clear_off_route, 0.15);
+  const double on_the_leg = drive(Box{1.85, 2.15, 1.2, 1.7}, &closest, &held_back);  // on the next leg
+  EXPECT_TRUE(std::isinf(on_the_leg));
+  EXPECT_GT(closest, defaults.robot_radius);
+  std::printf("corner to 1 m up the next leg: %.2f s; %.2f s with someone 0.65 m beside it (held back %.2f s); "
+              "%.2f s with someone 0.39 m beside it (%.3f m off the route at most)\n",
+              free_way, beside, beside_held_back, just_clear, just_clear_off_route);
+}
+
+// A robot a little off the route's line (0.11 m, as after a corner) with someone standing 0.4 m
+// beside the line ahead, on the robot's side: the line is clear of them, the robot's own band is
+// not. It drives back onto the line (the line is the nearest free lane) and past, instead of
+// waiting for them to leave (the room's visitor held it 4 s).
+TEST(RouteFollower, GetsBackOntoTheLinePastSomeoneBesideIt) {
+  std::vector<Pose2D> goals;
+  for (int k = 0; k <= 8; ++k) goals.emplace_back(0.5 * k, 0.0, 0.0);
+  const double x0 = 1.1, x1 = 1.4, y0 = 0.4, y1 = 0.9;  // the body: 0.4 m left of the line
+  auto drive = [&](const RouteFollowerOptions& options, double* closest) {
+    RouteFollower follower(goals, options);
+    Pose2D pose(0.0, 0.11, 0.0);
+    const double dt = 0.05;
+    *closest = 1e9;
+    double t = 0.0;
+    for (; t < 30.0 && pose.x < 2.5; t += dt) {
+      std::vector<Eigen::Vector2d> points;
+      for (double x = x0; x <= x1 + 1e-9; x += 0.02) {
+        for (double y = y0; y <= y1 + 1e-9; y += 0.02) {
+          if (x > x0 && x < x1 && y > y0 && y < y1) continue;  // its outline
+          const double dx = x - pose.x, dy = y - pose.y;
+          points.emplace_back(std::cos(pose.yaw) * dx + std::sin(pose.yaw) * dy,
+                              -std::sin(pose.yaw) * dx + std::cos(pose.yaw) * dy);
+        }
+      }
+      EXPECT_TRUE(follower.setFix(pose, t).isOk());
+      const FollowOutput out = follower.update(t, dt, points);
+      *closest = std::min(*closest, std::hypot(std::max({x0 - pose.x, 0.0, pose.x - x1}),
+                                               std::max({y0 - pose.y, 0.0, pose.y - y1})));
+      pose = integrate(pose, out.command, dt);
+    }
+    return t;
+  };
+  RouteFollowerOptions options;
+  options.controller.goal_tolerance = 0.4;
+  double closest = 0.0;
+  const double passing = drive(options, &closest);
+  EXPECT_GT(closest, options.robot_radius);
+  RouteFollowerOptions waiting_options = options;
+  waiting_options.pass_offset = 0.0;
+  double closest_waiting = 0.0;
+  const double waiting = drive(waiting_options, &closest_waiting);
+  EXPECT_LT(passing, waiting - 1.0);  // 5.5 s against 6.8 s
+  std::printf("2.5 m past someone 0.4 m beside the line: %.2f s (closest %.2f m); without lanes %.2f s\n", passing,
+              closest, waiting);
 }
 
 // The obstacle parameters are checked: a slow gap not beyond the stop gap, a negative radius.

@@ -511,7 +511,8 @@ TEST(PlanarWorld, ClutterAndPeopleFromTheWorldFile) {
 
 // People let a robot pass: a person walking towards a robot standing on their path stops at the
 // yield distance and walks on once it has gone; one who would pass beside it (outside the yield
-// width) never waits, nor does someone crossing in front of a robot that waits for them.
+// width) never waits, nor does someone crossing in front of a robot that waits for them; someone
+// about to cross the path of a robot driving towards them waits at its edge until it has gone by.
 TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   Person walker;
   walker.name = "walker";
@@ -520,14 +521,14 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   const double dt = 0.01;
   Crowd crowd({walker}, CrowdOptions{1.0, 0.55});
   int i = 0;
-  for (; i < 500; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
+  for (; i < 500; ++i) crowd.advance(i * dt, dt, Pose2D(3.0, 0.2, 0.0));
   EXPECT_NEAR(crowd.poses()[0].x, 2.0, 0.011);  // stood 1 m before the robot
   EXPECT_NEAR(crowd.yieldedSeconds(0), 3.0, 0.02);
-  for (; i < 700; ++i) crowd.advance(i * dt, dt, Eigen::Vector2d(3.0, 5.0));  // the robot went
+  for (; i < 700; ++i) crowd.advance(i * dt, dt, Pose2D(3.0, 5.0, 0.0));  // the robot went
   EXPECT_NEAR(crowd.poses()[0].x, 4.0, 0.011);
   // Passing 0.7 m beside the robot: walks on.
   Crowd passer({walker}, CrowdOptions{1.0, 0.55});
-  for (int k = 0; k < 500; ++k) passer.advance(k * dt, dt, Eigen::Vector2d(3.0, 0.7));
+  for (int k = 0; k < 500; ++k) passer.advance(k * dt, dt, Pose2D(3.0, 0.7, 0.0));
   EXPECT_NEAR(passer.yieldedSeconds(0), 0.0, 1e-12);
   EXPECT_NEAR(passer.poses()[0].x, 5.0, 0.011);
   // Crossing in front of a robot that waits for them (they are in its way, 0.63 m ahead of it and
@@ -535,13 +536,28 @@ TEST(PlanarWorld, PeopleStandRatherThanWalkIntoTheRobot) {
   Person crossing = walker;
   crossing.path = {Eigen::Vector2d(3.0, 0.1), Eigen::Vector2d(3.0, -2.0)};
   Crowd crosser({crossing}, CrowdOptions{1.0, 0.55});
-  for (int k = 0; k < 200; ++k) crosser.advance(k * dt, dt, Eigen::Vector2d(2.4, -0.1));
+  for (int k = 0; k < 200; ++k) crosser.advance(k * dt, dt, Pose2D(2.4, -0.1, 0.0));
   EXPECT_NEAR(crosser.poses()[0].y, 0.1 - 2.0, 1e-6);
   EXPECT_NEAR(crosser.yieldedSeconds(0), 0.0, 1e-12);
+  // Crossing the path of a robot driving towards them (0.5 m/s along y = 0): they wait at its
+  // edge (yield_width from its line) until it has gone by, then cross; in front of a robot that
+  // stands they just cross.
+  Person across = walker;
+  across.path = {Eigen::Vector2d(3.0, -3.5), Eigen::Vector2d(3.0, 2.0)};
+  Crowd waiting({across}, CrowdOptions{1.0, 0.55});
+  for (i = 0; i < 500; ++i) waiting.advance(i * dt, dt, Pose2D(0.5 * i * dt, 0.0, 0.0));
+  EXPECT_NEAR(waiting.poses()[0].y, -0.55, 0.011);  // the robot at x = 2.5: 0.5 m before them
+  for (; i < 800; ++i) waiting.advance(i * dt, dt, Pose2D(0.5 * i * dt, 0.0, 0.0));
+  EXPECT_NEAR(waiting.yieldedSeconds(0), 3.55 / 0.5 - 2.95, 0.03);  // from 2.95 s to the robot past
+  EXPECT_NEAR(waiting.poses()[0].y, -0.55 + (8.0 - 3.55 / 0.5), 0.03);
+  Crowd not_waiting({across}, CrowdOptions{1.0, 0.55});
+  for (i = 0; i < 500; ++i) not_waiting.advance(i * dt, dt, Pose2D(2.0, 0.0, 0.0));
+  EXPECT_NEAR(not_waiting.yieldedSeconds(0), 0.0, 1e-12);
+  EXPECT_NEAR(not_waiting.poses()[0].y, -3.5 + 5.0, 0.011);
   // A robot standing in their way for good: with a patience of 2 s they stand 2 s, then turn back
   // (walking back the way they came, away from the robot) instead of standing there for ever.
   Crowd patient({walker}, CrowdOptions{1.0, 0.55, 2.0});
-  for (i = 0; i < 500; ++i) patient.advance(i * dt, dt, Eigen::Vector2d(3.0, 0.2));
+  for (i = 0; i < 500; ++i) patient.advance(i * dt, dt, Pose2D(3.0, 0.2, 0.0));
   EXPECT_NEAR(patient.yieldedSeconds(0), 2.0, 0.02);
   EXPECT_NEAR(patient.poses()[0].x, 2.0 - 1.0, 0.02);  // 1 s walking back from x = 2
   EXPECT_NEAR(std::abs(patient.poses()[0].yaw), M_PI, 1e-9);

@@ -163,8 +163,11 @@ class RouteFollower {
   FollowOutput following(const VelocityCommand& command, double distance, const std::string& reason = "") const;
   struct Lane;
   // The forward velocity cap for the obstacle points in the corridor ahead (robot_radius either
-  // side of the base's heading, or of `lane` while passing), and why.
+  // side of the arc the last command drives, or of `lane` while passing), and why.
   double obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, const Lane* lane, std::string* reason) const;
+  // The arc's curvature is the command's ω over its v, v no less than this fraction of
+  // max_linear_velocity (a robot starting to turn from standstill).
+  static constexpr double kArcSpeedFloor = 0.1;
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
   int lapOf(std::size_t position) const;
@@ -209,7 +212,7 @@ class RouteFollower {
   double stamp_ = 0.0;
   OdometryBuffer odometry_;  // the last carried_pose_timeout + 1 s, interpolated at the fix's stamp
   double heading_offset_ = 0.0;
-  double pass_lane_ = 0.0;  // the lane passingLane() chose last [m]
+  std::optional<double> pass_lane_;  // the lane passingLane() chose last [m]
   PoseTrust trust_ = PoseTrust::kOk;
   std::string trust_reason_;
   bool search_helps_ = true;

@@ -169,15 +169,17 @@ struct PlanarWorld {
   PlanarWorld withPeople(const std::vector<Pose2D>& poses) const;
 };
 
-// People who do not walk into a robot: each person follows Person::poseAt on a clock of their own,
-// which runs with simulated time except while the robot's centre is in their lane ahead of them
-// (within `yield_distance` [m] along the way they walk and `yield_width` [m] across it): then they
-// stand and let it pass, as people do. Someone who would pass beside the robot walks on; the robot
-// still has to stop for someone standing in its way.
-// How people give way to the robot (Crowd): a person stands while the robot's centre is in their
-// lane ahead, within yield_distance [m] along the way they walk and yield_width [m] across it, and
-// after standing yield_patience [s] in a row for it (the robot may be waiting for them too:
-// neither would ever move) turns back the way they came.
+// How people give way to the robot (Crowd), as pedestrians do: a person stands
+//  - while the robot's centre is in their lane ahead, within yield_distance [m] along the way they
+//    walk and yield_width [m] across it (they would walk into it), and
+//  - before stepping into the path of a robot that drives towards them: while their next step would
+//    take them from outside to within yield_width of the line the robot drives along, the robot
+//    moving forwards and between yield_width behind and yield_distance + yield_width before them
+//    (they wait at the edge of its path until it has gone by, rather than step in front of it).
+// Someone already in its path walks on out of it; someone who would pass beside the robot walks on.
+// After standing yield_patience [s] in a row for it (the robot may be waiting for them too: neither
+// would ever move) a person turns back the way they came. yield_width is the robot's radius, half
+// the person's width and a margin.
 struct CrowdOptions {
   double yield_distance = 1.0;
   double yield_width = 0.55;
@@ -187,8 +189,9 @@ struct CrowdOptions {
 class Crowd {
  public:
   Crowd(std::vector<Person> people, const CrowdOptions& options);
-  // From `time` to `time + dt` [simulated s], the robot's centre at `robot`.
-  void advance(double time, double dt, const Eigen::Vector2d& robot);
+  // From `time` to `time + dt` [simulated s], the robot (base_link) at `robot`; its speed is taken
+  // from the previous call's pose.
+  void advance(double time, double dt, const Pose2D& robot);
   std::vector<Pose2D> poses() const;
   // [s] how long person i has stood for the robot so far.
   double yieldedSeconds(std::size_t i) const { return yielded_.at(i); }
@@ -199,6 +202,7 @@ class Crowd {
   std::vector<double> yielded_;
   std::vector<double> standing_;  // [s] stood for the robot in a row
   CrowdOptions options_;
+  Pose2D previous_robot_;
   bool started_ = false;
 };
 

@@ -83,7 +83,7 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   if (readParameter(p, "clutter", false)) world_ = world_.withClutter();
   world_.clutter.clear();
   if (!readParameter(p, "people", false)) world_.people.clear();
-  // People stand rather than walk into the robot: while it is in their lane ahead (Crowd).
+  // People stand rather than walk into the robot or step into its path (Crowd).
   const double yield_distance = readParameter(p, "people_yield_distance", 1.0);
   const double yield_width = readParameter(p, "people_yield_width", 0.55);
   if (!std::isfinite(yield_distance) || yield_distance < 0.0 || !std::isfinite(yield_width) || yield_width < 0.0) {
@@ -278,7 +278,7 @@ void PlanarWorldSim::run() {
       }
     }
     robot_->step(v, w, dt);
-    if (crowd_) crowd_->advance(sim_seconds, dt, Eigen::Vector2d(robot_->truth().x, robot_->truth().y));
+    if (crowd_) crowd_->advance(sim_seconds, dt, robot_->truth());
     if (kidnap_time_ > 0.0 && !kidnapped_ && sim_seconds >= kidnap_time_) {
       kidnapped_ = true;
       robot_->teleport(robot_->truth().compose(kidnap_offset_));
