@@ -72,6 +72,10 @@ void RouteFollowerOptions::validate() const {
   if (!std::isfinite(turn_in_place_angle) || turn_in_place_angle < 0.0 || turn_in_place_angle > M_PI) {
     throw std::invalid_argument("turn_in_place_angle must be in [0, pi]");
   }
+  if (!std::isfinite(turn_in_place_exit_angle) || turn_in_place_exit_angle < 0.0 ||
+      turn_in_place_exit_angle > turn_in_place_angle) {
+    throw std::invalid_argument("turn_in_place_exit_angle must be in [0, turn_in_place_angle]");
+  }
   positive(final_approach_distance, "final_approach_distance");
   positive(final_goal_tolerance, "final_goal_tolerance");
   positive(final_approach_gain, "final_approach_gain");
@@ -309,7 +313,13 @@ FollowOutput RouteFollower::update(double now, double dt,
   }
   const double bearing =
       goalBearing(pose_, lane_target ? Pose2D(lane_target->x(), lane_target->y(), 0.0) : goal, heading_offset_);
-  if (options_.turn_in_place_angle > 0.0 && std::abs(bearing) > options_.turn_in_place_angle) {
+  // Leaving a corner (the teach run turned in place at the goal just passed), a turn in place goes
+  // on until the bearing is within turn_in_place_exit_angle; elsewhere (a goal close ahead seen
+  // from a few centimetres beside the line) it stops at turn_in_place_angle.
+  const bool exit_at_corner = turning_in_place_ && leavingCorner();
+  turning_in_place_ = options_.turn_in_place_angle > 0.0 &&
+                      std::abs(bearing) > (exit_at_corner ? options_.turn_in_place_exit_angle : options_.turn_in_place_angle);
+  if (turning_in_place_) {
     const auto command = controller_.track(0.0, options_.final_turn_gain * bearing, dt);
     if (!command) return stop(FollowState::kStopped, command.status().message());
     return go(distance);
@@ -449,6 +459,13 @@ double RouteFollower::straightRunAfter(std::size_t position) const {
     direction = segment;
   }
   return run;
+}
+
+bool RouteFollower::leavingCorner() const {
+  if (next_ < 2 || next_ >= sequence_.size()) return false;
+  const Pose2D& passed = goals_[static_cast<std::size_t>(sequence_[next_ - 1])];
+  const Pose2D& before = goals_[static_cast<std::size_t>(sequence_[next_ - 2])];
+  return std::hypot(passed.x - before.x, passed.y - before.y) < options_.corner_radius;
 }
 
 double RouteFollower::toleranceOf(std::size_t position) const {

@@ -46,6 +46,7 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.corner_radius = readParameter(nh, "corner_radius", o.corner_radius);
     o.corner_tolerance = readParameter(nh, "corner_tolerance", o.corner_tolerance);
     o.turn_in_place_angle = readParameter(nh, "turn_in_place_angle", o.turn_in_place_angle);
+    o.turn_in_place_exit_angle = readParameter(nh, "turn_in_place_exit_angle", o.turn_in_place_exit_angle);
     o.straight_leg_angle = readParameter(nh, "straight_leg_angle", o.straight_leg_angle);
     o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
     o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);

@@ -57,10 +57,14 @@ struct RouteFollowerOptions {
   // where the route turns instead of cutting the corner at ε and swinging wide (found in the
   // simulator: at 0.4 m it overshot by 0.3 m into views never taught, and vision went wrong there).
   // A goal more than turn_in_place_angle [rad] off the robot's heading is turned to in place
-  // (w = final_turn_gain · bearing) instead of by the force direction of eq. (3) (0: never).
+  // (w = final_turn_gain · bearing) instead of by the force direction of eq. (3) (0: never); leaving
+  // a corner, until it is within turn_in_place_exit_angle [rad, 0..turn_in_place_angle]: the force direction turns
+  // the rest far too gently (0.04 rad/s for 12°), and leaving a corner 29° off the next leg the
+  // robot drove 15 cm beside it and crept to the next corner (docs/nodes/controller_node.md).
   double corner_radius = 0.05;
   double corner_tolerance = 0.15;
   double turn_in_place_angle = 0.5;
+  double turn_in_place_exit_angle = 0.1;
   // Straight legs. The attraction of eq. (3) grows with the distance to the goal, and keyframes
   // are close (0.5 m with ε 0.4 m in the demo: the robot averaged half its speed limit on straights).
   // The distance the attraction sees is the goal's plus the route's length beyond it while the
@@ -176,6 +180,9 @@ class RouteFollower {
   // The controller's limits for the current trust (DEGRADED: scaled).
   void applyTrustToLimits();
   double toleranceOf(std::size_t position) const;
+  // The goal just passed is where the teach run turned in place (it and the one before it within
+  // corner_radius).
+  bool leavingCorner() const;
   // The route's length beyond the goal at `position` while it runs straight on (straight_leg_angle).
   double straightRunAfter(std::size_t position) const;
   // Passing beside (pass_offset): the route's line from the previous goal to the current one and
@@ -202,6 +209,7 @@ class RouteFollower {
   std::vector<int> sequence_;  // goal keyframe indices for the whole run (laps unrolled)
   std::size_t goals_per_lap_ = 1;
   std::size_t next_ = 0;       // position in sequence_
+  bool turning_in_place_ = false;   // until the bearing is within turn_in_place_exit_angle
   bool at_final_position_ = false;  // the last goal's position is reached: aligning the heading
   bool has_fix_ = false;
   bool lost_ = false;
