@@ -329,7 +329,7 @@ FollowOutput RouteFollower::update(double now, double dt,
     // it below the limit; ω for the limit would then turn it far more sharply than the arc).
     const double v_max = options_.controller.max_linear_velocity;
     const double curvature = 2.0 * std::sin(bearing) / options_.pass_lookahead;
-    const double v_now = std::max(controller_.state().linear, 0.1 * v_max);
+    const double v_now = std::max(controller_.state().linear, kArcSpeedFloor * v_max);
     const auto command = controller_.track(v_max, curvature * v_now, dt);
     if (!command) return stop(FollowState::kStopped, command.status().message());
     return go(distance);

@@ -262,11 +262,12 @@ void Crowd::advance(double time, double dt, const Pose2D& robot) {
     started_ = true;
   }
   const Eigen::Vector2d robot_position(robot.x, robot.y);
-  const Eigen::Vector2d robot_heading(std::cos(robot.yaw), std::sin(robot.yaw));
+  // In the robot's frame: x ahead of it, y beside its line.
+  const Pose2D to_robot_frame = robot.inverse();
   // Below this [m/s] the robot counts as standing: people cross in front of a robot that waits.
   constexpr double kRobotMoving = 0.05;
   const bool robot_moving =
-      dt > 0.0 && robot_heading.dot(robot_position - Eigen::Vector2d(previous_robot_.x, previous_robot_.y)) > kRobotMoving * dt;
+      dt > 0.0 && -to_robot_frame.transformPoint(Eigen::Vector2d(previous_robot_.x, previous_robot_.y)).x() > kRobotMoving * dt;
   previous_robot_ = robot;
   const double width = options_.yield_width;
   for (std::size_t i = 0; i < people_.size(); ++i) {
@@ -281,14 +282,10 @@ void Crowd::advance(double time, double dt, const Pose2D& robot) {
       const double across = std::abs(direction.x() * to_robot.y() - direction.y() * to_robot.x());
       stands = along > 0.0 && along < options_.yield_distance && across < width;
       // Would step into the path of the robot driving towards them: wait at its edge.
-      const double ahead_of_robot = -robot_heading.dot(to_robot);
-      const auto beside_path = [&](const Eigen::Vector2d& point) {
-        const Eigen::Vector2d from_robot = point - robot_position;
-        return std::abs(robot_heading.x() * from_robot.y() - robot_heading.y() * from_robot.x());
-      };
-      stands = stands || (robot_moving && ahead_of_robot > -width && ahead_of_robot < options_.yield_distance + width &&
-                          beside_path(Eigen::Vector2d(now.x, now.y)) >= width &&
-                          beside_path(Eigen::Vector2d(next.x, next.y)) < width);
+      const Eigen::Vector2d here = to_robot_frame.transformPoint(Eigen::Vector2d(now.x, now.y));
+      const Eigen::Vector2d there = to_robot_frame.transformPoint(Eigen::Vector2d(next.x, next.y));
+      stands = stands || (robot_moving && here.x() > -width && here.x() < options_.yield_distance + width &&
+                          std::abs(here.y()) >= width && std::abs(there.y()) < width);
     }
     if (!stands) {
       standing_[i] = 0.0;

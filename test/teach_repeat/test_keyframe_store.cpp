@@ -12,22 +12,10 @@
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
+#include "support/synthetic_route.h"
 
 using namespace homography_teach_repeat;
-
-namespace {
-
-CameraCalibration calibration() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
-
-}  // namespace
+using test_support::syntheticCalibration;
 
 // Each keyframe keeps only the features on its own plane (docs/nodes/repeat_node.md, "Wrong-wall
 // protection"): a route taught diagonally towards a corner of the simulated room sees two walls in
@@ -44,7 +32,7 @@ TEST(KeyframeStore, KeepsOnlyTheFeaturesOnTheKeyframesPlane) {
   render.camera_height = 0.6;
   render.noise_sigma = 2.0;
   render.blur_sigma = 0.5;
-  const PinholeCamera camera(calibration());
+  const PinholeCamera camera(syntheticCalibration());
   const WorldRenderer renderer(camera, render);
   const Pose2D mount(0.2, 0.0, 0.0);
   TeachOptions options;
@@ -54,7 +42,7 @@ TEST(KeyframeStore, KeepsOnlyTheFeaturesOnTheKeyframesPlane) {
   options.features.max_features = 1500;
   options.keyframes.distance = 0.25;
   options.planes_from_odometry = true;
-  auto session = TeachSession::start(options, calibration(), mount);
+  auto session = TeachSession::start(options, syntheticCalibration(), mount);
   ASSERT_TRUE(session.isOk()) << session.status().toString();
   // From the room's south-east towards its north-west corner, seeing the north and the west wall.
   const Pose2D start(2.6, 0.6, 2.4);

@@ -169,8 +169,8 @@ class RouteFollower {
   // The forward velocity cap for the obstacle points in the corridor ahead (robot_radius either
   // side of the arc the last command drives, or of `lane` while passing), and why.
   double obstacleSpeedLimit(const std::vector<Eigen::Vector2d>& obstacles, const Lane* lane, std::string* reason) const;
-  // The arc's curvature is the command's ω over its v, v no less than this fraction of
-  // max_linear_velocity (a robot starting to turn from standstill).
+  // An arc's curvature is ω over v, v no less than this fraction of max_linear_velocity (a robot
+  // starting from standstill): the corridor's arc, and the passing lane's pure pursuit.
   static constexpr double kArcSpeedFloor = 0.1;
   // The last goal: go-to-point, then the heading alignment. Empty optional = finished.
   std::optional<Expected<VelocityCommand>> finalApproach(const Pose2D& goal, double distance, double dt);
