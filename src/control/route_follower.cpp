@@ -76,6 +76,10 @@ void RouteFollowerOptions::validate() const {
       turn_in_place_exit_angle > turn_in_place_angle) {
     throw std::invalid_argument("turn_in_place_exit_angle must be in [0, turn_in_place_angle]");
   }
+  if (!std::isfinite(corner_deceleration) || corner_deceleration < 0.0 ||
+      corner_deceleration > controller.max_linear_acceleration) {
+    throw std::invalid_argument("corner_deceleration must be in [0, max_linear_acceleration]");
+  }
   positive(final_approach_distance, "final_approach_distance");
   positive(final_goal_tolerance, "final_goal_tolerance");
   positive(final_approach_gain, "final_approach_gain");
@@ -334,7 +338,7 @@ FollowOutput RouteFollower::update(double now, double dt,
     if (!command) return stop(FollowState::kStopped, command.status().message());
     return go(distance);
   }
-  const auto command = controller_.step(distance + straightRunAfter(next_), bearing, obstacles, dt);
+  const auto command = controller_.step(attractionDistance(next_, distance), bearing, obstacles, dt);
   if (!command) return stop(FollowState::kStopped, command.status().message());
   return go(distance);
 }
@@ -459,6 +463,18 @@ double RouteFollower::straightRunAfter(std::size_t position) const {
     direction = segment;
   }
   return run;
+}
+
+double RouteFollower::attractionDistance(std::size_t position, double distance) const {
+  const double run = straightRunAfter(position);
+  if (run > 0.0 || !(options_.corner_deceleration > 0.0)) return distance + run;
+  // The field settles at v = k_a D / 2b (below the saturation); the robot stops from
+  // sqrt(2 a d) within d at deceleration a. The field's first-order lag (1/2b) keeps the robot
+  // a little faster than that as it brakes; the turn in place at corner_tolerance stops it.
+  const PotentialFieldParameters& p = options_.controller;
+  const double braking = 2.0 * p.viscous_friction * std::sqrt(2.0 * options_.corner_deceleration * distance) /
+                         p.attractive_gain;
+  return std::max(distance, braking);
 }
 
 bool RouteFollower::leavingCorner() const {

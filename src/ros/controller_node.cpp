@@ -48,6 +48,7 @@ RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
     o.turn_in_place_angle = readParameter(nh, "turn_in_place_angle", o.turn_in_place_angle);
     o.turn_in_place_exit_angle = readParameter(nh, "turn_in_place_exit_angle", o.turn_in_place_exit_angle);
     o.straight_leg_angle = readParameter(nh, "straight_leg_angle", o.straight_leg_angle);
+    o.corner_deceleration = readParameter(nh, "corner_deceleration", o.corner_deceleration);
     o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
     o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);
     o.final_turn_angle = readParameter(nh, "final_turn_angle", o.final_turn_angle);

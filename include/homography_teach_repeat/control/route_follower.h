@@ -72,6 +72,13 @@ struct RouteFollowerOptions {
   // its speed along a straight leg and slows down where the route turns or ends. 0: the goal's
   // distance alone (paper 002).
   double straight_leg_angle = 0.35;
+  // Where the drive ends (a corner, a bend beyond straight_leg_angle), the attraction of eq. (3)
+  // falls in proportion to the distance: the robot settles at k_a d / 2b, 0.1 m/s 0.2 m before
+  // the corner, and crawled most of the last metre of every leg. With corner_deceleration [m/s²,
+  // 0..max_linear_acceleration] > 0 the attraction sees at least the distance at which its
+  // steady speed is the one from which the robot stops at that deceleration, sqrt(2 a d) (0: the
+  // paper's field all the way; docs/nodes/controller_node.md "Corners").
+  double corner_deceleration = 0.3;
   // The end of the run. Paper 002's robot stops once within ε of the last keyframe; here the last
   // goal is approached within final_approach_distance [m] with a go-to-point law (turn in place
   // while the goal's bearing exceeds final_turn_angle [rad]; otherwise v = final_approach_gain ·
@@ -185,6 +192,9 @@ class RouteFollower {
   bool leavingCorner() const;
   // The route's length beyond the goal at `position` while it runs straight on (straight_leg_angle).
   double straightRunAfter(std::size_t position) const;
+  // The distance the attraction sees towards the goal at `position`, `distance` [m] away: the
+  // straight run beyond it added, or the braking distance for corner_deceleration.
+  double attractionDistance(std::size_t position, double distance) const;
   // Passing beside (pass_offset): the route's line from the previous goal to the current one and
   // the lane along it to drive for these obstacle points (robot frame); none when the line is
   // free, when no lane within pass_offset is, or on a turn in place.
