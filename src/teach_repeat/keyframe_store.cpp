@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "homography_teach_repeat/features/feature_matcher.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
@@ -175,8 +176,54 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
                                             const RepeatOptions& options) {
   const int n = size();
   if (n < 2) return;
-  // Every keyframe against its neighbours' whole feature sets, then each restricted.
-  std::vector<std::optional<std::vector<int>>> plane_features(static_cast<std::size_t>(n));
+  // A closed route's last keyframes have the first ones as neighbours (the gallery's start
+  // corner: the last turn keyframe, facing the first leg, had only keyframes turning in place
+  // before it and kept the far wall's features against the side wall's plane: poses 9 cm off
+  // claiming 2 mm).
+  constexpr double kClosedRouteGap = 1.0;  // [m] RouteFollowerOptions::closed_route_gap's default
+  const bool closed = isClosedLoop(poses(), kClosedRouteGap);
+  auto wrapped = [&](int j) -> std::optional<int> {
+    if (j >= 0 && j < n) return j;
+    if (!closed) return std::nullopt;
+    return (j % n + n) % n;
+  };
+  auto relativeCamera = [&](int k, int j) {
+    return mount.baseToCamera(keyframes_[static_cast<std::size_t>(k)].base_pose.inverse().compose(
+        keyframes_[static_cast<std::size_t>(j)].base_pose));
+  };
+  // Per keyframe and feature: -1 missed the plane, 1 matched and on it, 0 not matched. Every
+  // keyframe against its neighbours' whole feature sets, then each restricted.
+  constexpr double kMinBaseline = 0.1;  // [m] of the camera
+  constexpr double kMaxTurn = 0.5;      // [rad]
+  constexpr int kMaxSteps = 3;
+  std::vector<std::vector<int>> verdicts(static_cast<std::size_t>(n));
+  // Each feature of k matched to one of j's: whether it moved as k's plane predicts.
+  auto matchedOnPlane = [&](int k, int j, auto&& judge) {
+    const KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
+    const PlanarPose relative = relativeCamera(k, j);
+    Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
+    const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
+    if (!dmatches) return;
+    std::vector<int> kept;
+    const PointMatches on_pixels =
+        undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
+    if (options.pose.tilt_sigma_rad > 0.0) {
+      // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
+      // against this one, and the planar-motion homography misses the plane by several pixels
+      // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
+      // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
+      const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
+      if (pair) {
+        const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
+        if (tilt) H = camera.K() * tilt->tilt() * camera.Kinverse() * H;
+      }
+    }
+    for (std::size_t i = 0; i < on_pixels.size(); ++i) {
+      const cv::DMatch& m = (*dmatches)[static_cast<std::size_t>(kept[i])];
+      judge(m.queryIdx, transferError(H, on_pixels[i]) < options.plane_feature_tolerance_px);
+    }
+  };
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;  // (hybrid: not used for poses)
@@ -188,65 +235,51 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
     // A feature stays when it moves as the plane predicts to every one of them that it matches:
     // near a corner the side wall's features miss the plane by little at the nearest neighbour
     // (the gallery's keyframe 14: 21 of them among the inliers where its own photograph had been
-    // replaced, 3.5 cm off claiming 4 mm), by more at one 0.5 m on. Without any such neighbour,
-    // the nearest keyframe.
-    constexpr double kMinBaseline = 0.1;  // [m] of the camera
-    constexpr double kMaxTurn = 0.5;      // [rad]
-    constexpr int kMaxSteps = 3;
+    // replaced, 3.5 cm off claiming 4 mm), by more at one 0.5 m on.
     std::vector<int> neighbours;
     for (int step = 1; step <= kMaxSteps; ++step) {
-      for (const int j : {k + step, k - step}) {
-        if (j < 0 || j >= n) continue;
-        const PlanarPose motion = mount.baseToCamera(reference.base_pose.inverse().compose(keyframes_[static_cast<std::size_t>(j)].base_pose));
-        if (std::hypot(motion.x, motion.z) >= kMinBaseline && std::abs(motion.theta) <= kMaxTurn) neighbours.push_back(j);
+      for (const int candidate : {k + step, k - step}) {
+        const auto j = wrapped(candidate);
+        if (!j || *j == k) continue;
+        const PlanarPose motion = relativeCamera(k, *j);
+        if (std::hypot(motion.x, motion.z) >= kMinBaseline && std::abs(motion.theta) <= kMaxTurn) neighbours.push_back(*j);
       }
     }
-    if (neighbours.empty()) neighbours.push_back(k + 1 < n ? k + 1 : k - 1);
-    // Per feature: -1 missed the plane somewhere, 1 matched and on it, 0 not matched.
-    std::vector<int> verdict(reference.features.keypoints.size(), 0);
+    // Without any such neighbour (the middle of a turn in place), the nearest keyframe: a pure
+    // rotation maps every feature alike, and all stay.
+    if (neighbours.empty()) {
+      const auto next = wrapped(k + 1);
+      neighbours.push_back(next && *next != k ? *next : k - 1);
+    }
+    std::vector<int>& verdict = verdicts[static_cast<std::size_t>(k)];
+    verdict.assign(reference.features.keypoints.size(), 0);
     for (const int j : neighbours) {
-      const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
-      const PlanarPose relative = mount.baseToCamera(reference.base_pose.inverse().compose(neighbour.base_pose));
-      Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
-      const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
-      if (!dmatches) continue;
-      std::vector<int> kept;
-      const PointMatches on_pixels =
-          undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
-      if (options.pose.tilt_sigma_rad > 0.0) {
-        // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
-        // against this one, and the planar-motion homography misses the plane by several pixels
-        // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
-        // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
-        const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
-        if (pair) {
-          const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
-          if (tilt) H = camera.K() * tilt->tilt() * camera.Kinverse() * H;
-        }
-      }
-      for (std::size_t i = 0; i < on_pixels.size(); ++i) {
-        int& feature = verdict[static_cast<std::size_t>((*dmatches)[static_cast<std::size_t>(kept[i])].queryIdx)];
-        if (transferError(H, on_pixels[i]) >= options.plane_feature_tolerance_px) {
+      matchedOnPlane(k, j, [&](int mine, bool on_plane) {
+        int& feature = verdict[static_cast<std::size_t>(mine)];
+        if (!on_plane) {
           feature = -1;
         } else if (feature == 0) {
           feature = 1;
         }
-      }
+      });
     }
-    std::vector<int> on_plane;
-    for (std::size_t i = 0; i < verdict.size(); ++i) {
-      if (verdict[i] == 1) on_plane.push_back(static_cast<int>(i));
-    }
-    // Too few: a pure rotation to the neighbour maps every feature alike, or the neighbour shows
-    // little of this plane; keep every feature then.
-    if (static_cast<int>(on_plane.size()) < 2 * options.min_inliers) continue;
-    plane_features[static_cast<std::size_t>(k)] = std::move(on_plane);
   }
+  // Too few confirmed (a neighbour that shows little of this plane): every feature not seen off it
+  // stays.
+  auto confirmed = [&](int k) {
+    const std::vector<int>& verdict = verdicts[static_cast<std::size_t>(k)];
+    return std::count(verdict.begin(), verdict.end(), 1) >= 2 * options.min_inliers;
+  };
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
-    if (plane_features[static_cast<std::size_t>(k)]) {
-      reference.features = selectFeatures(reference.features, *plane_features[static_cast<std::size_t>(k)]);
+    if (!reference.plane) continue;
+    const std::vector<int>& verdict = verdicts[static_cast<std::size_t>(k)];
+    std::vector<int> on_plane, not_refuted;
+    for (std::size_t i = 0; i < verdict.size(); ++i) {
+      if (verdict[i] == 1) on_plane.push_back(static_cast<int>(i));
+      if (verdict[i] >= 0) not_refuted.push_back(static_cast<int>(i));
     }
+    reference.features = selectFeatures(reference.features, confirmed(k) ? on_plane : not_refuted);
   }
 }
 
