@@ -283,7 +283,10 @@ FollowOutput RouteFollower::update(double now, double dt,
     return near && (!options_.require_goal_heading ||
                     std::abs(wrapToPi(goal.yaw - pose_.yaw)) < options_.controller.goal_heading_tolerance);
   };
-  while (next_ + 1 < sequence_.size() && reached(next_)) ++next_;
+  while (next_ + 1 < sequence_.size() && reached(next_)) {
+    if (isCorner(next_)) passed_corner_ = true;
+    ++next_;
+  }
   const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[next_])];
   const double distance = std::hypot(goal.x - pose_.x, goal.y - pose_.y);
   // Whatever drives the robot forward is capped for what stands in the corridor ahead (along the
@@ -320,9 +323,10 @@ FollowOutput RouteFollower::update(double now, double dt,
   // Leaving a corner (the teach run turned in place at the goal just passed), a turn in place goes
   // on until the bearing is within turn_in_place_exit_angle; elsewhere (a goal close ahead seen
   // from a few centimetres beside the line) it stops at turn_in_place_angle.
-  const bool exit_at_corner = turning_in_place_ && leavingCorner();
+  const bool exit_at_corner = turning_in_place_ && passed_corner_;
   turning_in_place_ = options_.turn_in_place_angle > 0.0 &&
                       std::abs(bearing) > (exit_at_corner ? options_.turn_in_place_exit_angle : options_.turn_in_place_angle);
+  if (!turning_in_place_) passed_corner_ = false;
   if (turning_in_place_) {
     const auto command = controller_.track(0.0, options_.final_turn_gain * bearing, dt);
     if (!command) return stop(FollowState::kStopped, command.status().message());
@@ -477,20 +481,16 @@ double RouteFollower::attractionDistance(std::size_t position, double distance) 
   return std::max(distance, braking);
 }
 
-bool RouteFollower::leavingCorner() const {
-  if (next_ < 2 || next_ >= sequence_.size()) return false;
-  const Pose2D& passed = goals_[static_cast<std::size_t>(sequence_[next_ - 1])];
-  const Pose2D& before = goals_[static_cast<std::size_t>(sequence_[next_ - 2])];
-  return std::hypot(passed.x - before.x, passed.y - before.y) < options_.corner_radius;
+bool RouteFollower::isCorner(std::size_t position) const {
+  if (position + 1 >= sequence_.size()) return false;
+  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
+  const Pose2D& next = goals_[static_cast<std::size_t>(sequence_[position + 1])];
+  return std::hypot(next.x - goal.x, next.y - goal.y) < options_.corner_radius;
 }
 
 double RouteFollower::toleranceOf(std::size_t position) const {
-  if (position + 1 >= sequence_.size()) return options_.controller.goal_tolerance;
-  const Pose2D& goal = goals_[static_cast<std::size_t>(sequence_[position])];
-  const Pose2D& next = goals_[static_cast<std::size_t>(sequence_[position + 1])];
-  const bool corner = std::hypot(next.x - goal.x, next.y - goal.y) < options_.corner_radius;
-  return corner ? std::min(options_.corner_tolerance, options_.controller.goal_tolerance)
-                : options_.controller.goal_tolerance;
+  return isCorner(position) ? std::min(options_.corner_tolerance, options_.controller.goal_tolerance)
+                            : options_.controller.goal_tolerance;
 }
 
 FollowOutput RouteFollower::following(const VelocityCommand& command, double distance,
