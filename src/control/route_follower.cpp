@@ -320,8 +320,8 @@ FollowOutput RouteFollower::update(double now, double dt,
   }
   const double bearing =
       goalBearing(pose_, lane_target ? Pose2D(lane_target->x(), lane_target->y(), 0.0) : goal, heading_offset_);
-  // Leaving a corner (the teach run turned in place at the goal just passed), a turn in place goes
-  // on until the bearing is within turn_in_place_exit_angle; elsewhere (a goal close ahead seen
+  // Leaving a corner (a goal where the teach run turned in place was passed since the robot last
+  // drove on), a turn in place goes on until the bearing is within turn_in_place_exit_angle; elsewhere (a goal close ahead seen
   // from a few centimetres beside the line) it stops at turn_in_place_angle.
   const bool exit_at_corner = turning_in_place_ && passed_corner_;
   turning_in_place_ = options_.turn_in_place_angle > 0.0 &&

@@ -180,50 +180,19 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
   // corner: the last turn keyframe, facing the first leg, had only keyframes turning in place
   // before it and kept the far wall's features against the side wall's plane: poses 9 cm off
   // claiming 2 mm).
-  constexpr double kClosedRouteGap = 1.0;  // [m] RouteFollowerOptions::closed_route_gap's default
-  const bool closed = isClosedLoop(poses(), kClosedRouteGap);
+  const bool closed = isClosedLoop(poses(), options.closed_route_gap);
   auto wrapped = [&](int j) -> std::optional<int> {
     if (j >= 0 && j < n) return j;
     if (!closed) return std::nullopt;
     return (j % n + n) % n;
   };
+  // The camera of keyframe j in the camera frame of keyframe k.
   auto relativeCamera = [&](int k, int j) {
     return mount.baseToCamera(keyframes_[static_cast<std::size_t>(k)].base_pose.inverse().compose(
         keyframes_[static_cast<std::size_t>(j)].base_pose));
   };
-  // Per keyframe and feature: -1 missed the plane, 1 matched and on it, 0 not matched. Every
-  // keyframe against its neighbours' whole feature sets, then each restricted.
-  constexpr double kMinBaseline = 0.1;  // [m] of the camera
-  constexpr double kMaxTurn = 0.5;      // [rad]
-  constexpr int kMaxSteps = 3;
-  std::vector<std::vector<int>> verdicts(static_cast<std::size_t>(n));
-  // Each feature of k matched to one of j's: whether it moved as k's plane predicts.
-  auto matchedOnPlane = [&](int k, int j, auto&& judge) {
-    const KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
-    const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
-    const PlanarPose relative = relativeCamera(k, j);
-    Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
-    const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
-    if (!dmatches) return;
-    std::vector<int> kept;
-    const PointMatches on_pixels =
-        undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
-    if (options.pose.tilt_sigma_rad > 0.0) {
-      // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
-      // against this one, and the planar-motion homography misses the plane by several pixels
-      // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
-      // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
-      const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
-      if (pair) {
-        const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
-        if (tilt) H = camera.K() * tilt->tilt() * camera.Kinverse() * H;
-      }
-    }
-    for (std::size_t i = 0; i < on_pixels.size(); ++i) {
-      const cv::DMatch& m = (*dmatches)[static_cast<std::size_t>(kept[i])];
-      judge(m.queryIdx, transferError(H, on_pixels[i]) < options.plane_feature_tolerance_px);
-    }
-  };
+  // Every keyframe against its neighbours' whole feature sets, then each restricted.
+  std::vector<std::optional<std::vector<int>>> plane_features(static_cast<std::size_t>(n));
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;  // (hybrid: not used for poses)
@@ -235,7 +204,11 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
     // A feature stays when it moves as the plane predicts to every one of them that it matches:
     // near a corner the side wall's features miss the plane by little at the nearest neighbour
     // (the gallery's keyframe 14: 21 of them among the inliers where its own photograph had been
-    // replaced, 3.5 cm off claiming 4 mm), by more at one 0.5 m on.
+    // replaced, 3.5 cm off claiming 4 mm), by more at one 0.5 m on. Without any such neighbour
+    // (the middle of a turn in place), the nearest keyframe.
+    constexpr double kMinBaseline = 0.1;  // [m] of the camera
+    constexpr double kMaxTurn = 0.5;      // [rad]
+    constexpr int kMaxSteps = 3;
     std::vector<int> neighbours;
     for (int step = 1; step <= kMaxSteps; ++step) {
       for (const int candidate : {k + step, k - step}) {
@@ -245,39 +218,56 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
         if (std::hypot(motion.x, motion.z) >= kMinBaseline && std::abs(motion.theta) <= kMaxTurn) neighbours.push_back(*j);
       }
     }
-    // Without any such neighbour (the middle of a turn in place), the nearest keyframe: a pure
-    // rotation maps every feature alike, and all stay.
     if (neighbours.empty()) {
       const auto next = wrapped(k + 1);
       neighbours.push_back(next && *next != k ? *next : k - 1);
     }
-    std::vector<int>& verdict = verdicts[static_cast<std::size_t>(k)];
-    verdict.assign(reference.features.keypoints.size(), 0);
+    // Per feature: -1 missed the plane somewhere, 1 matched and on it, 0 not matched.
+    std::vector<int> verdict(reference.features.keypoints.size(), 0);
     for (const int j : neighbours) {
-      matchedOnPlane(k, j, [&](int mine, bool on_plane) {
-        int& feature = verdict[static_cast<std::size_t>(mine)];
-        if (!on_plane) {
+      const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
+      const PlanarPose relative = relativeCamera(k, j);
+      Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
+      const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
+      if (!dmatches) continue;
+      std::vector<int> kept;
+      const PointMatches on_pixels =
+          undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
+      if (options.pose.tilt_sigma_rad > 0.0) {
+        // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
+        // against this one, and the planar-motion homography misses the plane by several pixels
+        // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
+        // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
+        const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
+        if (pair) {
+          const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
+          if (tilt) H = camera.K() * tilt->tilt() * camera.Kinverse() * H;
+        }
+      }
+      for (std::size_t i = 0; i < on_pixels.size(); ++i) {
+        int& feature = verdict[static_cast<std::size_t>((*dmatches)[static_cast<std::size_t>(kept[i])].queryIdx)];
+        if (transferError(H, on_pixels[i]) >= options.plane_feature_tolerance_px) {
           feature = -1;
         } else if (feature == 0) {
           feature = 1;
         }
-      });
+      }
     }
-  }
-  // Too few confirmed (a pure rotation to the neighbour, or a neighbour that shows little of this
-  // plane): every feature stays. (Keeping only those not seen off the plane broke fountain-P11's
-  // real wall: median 0.024 m instead of < 0.020, NEES 914; the 2 px tolerance refutes true plane
-  // features of a real camera.)
-  for (int k = 0; k < n; ++k) {
-    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
-    if (!reference.plane) continue;
     std::vector<int> on_plane;
-    const std::vector<int>& verdict = verdicts[static_cast<std::size_t>(k)];
     for (std::size_t i = 0; i < verdict.size(); ++i) {
       if (verdict[i] == 1) on_plane.push_back(static_cast<int>(i));
     }
-    if (static_cast<int>(on_plane.size()) >= 2 * options.min_inliers) {
-      reference.features = selectFeatures(reference.features, on_plane);
+    // Too few: a pure rotation to the neighbour maps every feature alike, or the neighbour shows
+    // little of this plane; keep every feature then. (Keeping only those not seen off the plane
+    // broke fountain-P11's real wall: median 0.024 m instead of < 0.020, NEES 914; the 2 px
+    // tolerance refutes true plane features of a real camera.)
+    if (static_cast<int>(on_plane.size()) < 2 * options.min_inliers) continue;
+    plane_features[static_cast<std::size_t>(k)] = std::move(on_plane);
+  }
+  for (int k = 0; k < n; ++k) {
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    if (plane_features[static_cast<std::size_t>(k)]) {
+      reference.features = selectFeatures(reference.features, *plane_features[static_cast<std::size_t>(k)]);
     }
   }
 }
