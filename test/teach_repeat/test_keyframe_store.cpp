@@ -21,6 +21,9 @@ namespace {
 
 struct KeptFeatures {
   int kept = 0, off_plane = 0;  // features kept, of them off the keyframe's plane (depth > 5 % off)
+  // Of those off the plane, the ones the plane puts beyond 5 times its distance: near the line where
+  // it recedes (a wall seen along its length), where its parallax is small.
+  int off_receding = 0;
   bool turn = false;            // a keyframe the teach run took turning in place
 };
 
@@ -97,10 +100,13 @@ std::vector<KeptFeatures> teachAndCheckFeatures(const Pose2D& start, const std::
       const double true_depth = hit->range * std::cos(bearing);
       ++counted.kept;
       // (A plane behind the ray puts the feature at a negative depth: off the plane.)
-      if (!(std::abs(plane_depth / true_depth - 1.0) <= 0.05)) ++counted.off_plane;
+      if (!(std::abs(plane_depth / true_depth - 1.0) <= 0.05)) {
+        ++counted.off_plane;
+        if (plane_depth > 5.0 * reference.plane->distance) ++counted.off_receding;
+      }
     }
-    std::printf("keyframe %d%s: %d features kept, %d of them off its plane\n", k, counted.turn ? " (turn)" : "",
-                counted.kept, counted.off_plane);
+    std::printf("keyframe %d%s: %d features kept, %d of them off its plane (%d where it recedes)\n", k,
+                counted.turn ? " (turn)" : "", counted.kept, counted.off_plane, counted.off_receding);
     result.push_back(counted);
   }
   std::filesystem::remove_all(directory);
@@ -152,13 +158,21 @@ TEST(KeyframeStore, TheTurnWhereALoopClosesKeepsOnlyItsWall) {
   // The turn keyframes after the last leg.
   std::size_t first = keyframes.size();
   while (first > 0 && keyframes[first - 1].turn) --first;
-  int kept = 0, off = 0;
+  int kept = 0, off = 0, off_receding = 0;
   for (std::size_t k = first; k < keyframes.size(); ++k) {
     kept += keyframes[k].kept;
     off += keyframes[k].off_plane;
+    off_receding += keyframes[k].off_receding;
   }
-  std::printf("the start corner's last turn: %zu keyframes, %d features kept, %d of them off their plane\n",
-              keyframes.size() - first, kept, off);
+  std::printf("the start corner's last turn: %zu keyframes, %d features kept, %d of them off their plane, %d where "
+              "it recedes\n",
+              keyframes.size() - first, kept, off, off_receding);
   ASSERT_GE(keyframes.size() - first, 3u);
   EXPECT_LT(off, 0.03 * kept) << off << " of " << kept << " kept features are not on their plane";
+  // The last one looks along the side wall towards the first leg's far wall. The far wall's
+  // features lie where the side wall recedes, near the direction the robot drives on: the
+  // keyframes ahead see them move as the side wall would, by less than the tolerance, and must not
+  // count that as a confirmation (the demo's route kept 7 of them; 6 among 32 inliers gave poses
+  // 0.3-0.65° off claiming 0.03°).
+  EXPECT_EQ(off_receding, 0) << off_receding << " far-wall features kept where the side wall's plane recedes";
 }
