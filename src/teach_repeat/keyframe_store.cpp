@@ -261,10 +261,11 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
       constexpr double kConfirmingParallax = 2.0;
       for (std::size_t i = 0; i < on_pixels.size(); ++i) {
         int& feature = verdict[static_cast<std::size_t>((*dmatches)[static_cast<std::size_t>(kept[i])].queryIdx)];
-        const Eigen::Vector2d& pixel = on_pixels[i].reference;
-        if (transferError(H, on_pixels[i]) >= options.plane_feature_tolerance_px) {
+        const PointMatch& match = on_pixels[i];
+        const Eigen::Vector2d on_the_plane = applyHomography(H, match.reference);
+        if ((match.current - on_the_plane).norm() >= options.plane_feature_tolerance_px) {
           feature = -1;
-        } else if (feature == 0 && (applyHomography(H, pixel) - applyHomography(H_rotation, pixel)).norm() >=
+        } else if (feature == 0 && (on_the_plane - applyHomography(H_rotation, match.reference)).norm() >=
                                        kConfirmingParallax * options.plane_feature_tolerance_px) {
           feature = 1;
         }

@@ -6,12 +6,8 @@
 #include <ros/ros.h>
 #include <sys/wait.h>
 
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -24,17 +20,14 @@ struct Outcome {
 
 // Runs planar_world_sim as node `name` (its private parameters already set) until it exits.
 Outcome runSimulator(const std::string& name) {
-  const std::string log = "/tmp/htr_bad_camera_" + name + "_" + std::to_string(::getpid()) + ".log";
-  const std::string command =
-      std::string("timeout 60 ") + HTR_PLANAR_WORLD_SIM + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(command.c_str());
+  const std::string command = std::string("timeout 60 ") + HTR_PLANAR_WORLD_SIM + " __name:=" + name + " 2>&1";
   Outcome outcome;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return outcome;
+  char buffer[256];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) outcome.output += buffer;
+  const int status = ::pclose(pipe);
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream file(log);
-  std::stringstream text;
-  text << file.rdbuf();
-  outcome.output = text.str();
-  std::remove(log.c_str());
   std::printf("planar_world_sim as %s: exit code %d, said:\n%s\n", name.c_str(), outcome.exit_code, outcome.output.c_str());
   return outcome;
 }

@@ -113,6 +113,20 @@ std::vector<KeptFeatures> teachAndCheckFeatures(const Pose2D& start, const std::
   return result;
 }
 
+// The counts summed over the turn keyframes that end a route (`count`: how many there are).
+KeptFeatures lastTurnTotals(const std::vector<KeptFeatures>& keyframes, std::size_t* count) {
+  std::size_t first = keyframes.size();
+  while (first > 0 && keyframes[first - 1].turn) --first;
+  KeptFeatures total;
+  for (std::size_t k = first; k < keyframes.size(); ++k) {
+    total.kept += keyframes[k].kept;
+    total.off_plane += keyframes[k].off_plane;
+    total.off_receding += keyframes[k].off_receding;
+  }
+  *count = keyframes.size() - first;
+  return total;
+}
+
 }  // namespace
 
 // Each keyframe keeps only the features on its own plane (docs/nodes/repeat_node.md, "Wrong-wall
@@ -156,18 +170,13 @@ TEST(KeyframeStore, TheTurnWhereALoopClosesKeepsOnlyItsWall) {
       driving, std::string(HTR_TEST_DATA_DIR) + "/../../config/worlds/gallery.yaml", 0.5);
   if (keyframes.empty()) GTEST_SKIP() << "world textures unavailable (opencv-doc)";
   // The turn keyframes after the last leg.
-  std::size_t first = keyframes.size();
-  while (first > 0 && keyframes[first - 1].turn) --first;
-  int kept = 0, off = 0, off_receding = 0;
-  for (std::size_t k = first; k < keyframes.size(); ++k) {
-    kept += keyframes[k].kept;
-    off += keyframes[k].off_plane;
-    off_receding += keyframes[k].off_receding;
-  }
+  std::size_t turn_keyframes = 0;
+  const KeptFeatures total = lastTurnTotals(keyframes, &turn_keyframes);
+  const int kept = total.kept, off = total.off_plane, off_receding = total.off_receding;
   std::printf("the start corner's last turn: %zu keyframes, %d features kept, %d of them off their plane, %d where "
               "it recedes\n",
-              keyframes.size() - first, kept, off, off_receding);
-  ASSERT_GE(keyframes.size() - first, 3u);
+              turn_keyframes, kept, off, off_receding);
+  ASSERT_GE(turn_keyframes, 3u);
   EXPECT_LT(off, 0.03 * kept) << off << " of " << kept << " kept features are not on their plane";
   // The last one looks along the side wall towards the first leg's far wall. The far wall's
   // features lie where the side wall recedes, near the direction the robot drives on: the
@@ -193,15 +202,11 @@ TEST(KeyframeStore, ATurnKeyframeThatItsNeighboursDisproveKeepsOnlyWhatTheyConfi
        Eigen::Vector2d(1.0, 4.0), Eigen::Vector2d(1.0, 1.0)},
       driving, std::string(HTR_TEST_DATA_DIR) + "/../../config/worlds/l_hall.yaml", 0.5);
   if (keyframes.empty()) GTEST_SKIP() << "world textures unavailable (opencv-doc)";
-  std::size_t first = keyframes.size();
-  while (first > 0 && keyframes[first - 1].turn) --first;
-  int kept = 0, off = 0;
-  for (std::size_t k = first; k < keyframes.size(); ++k) {
-    kept += keyframes[k].kept;
-    off += keyframes[k].off_plane;
-  }
+  std::size_t turn_keyframes = 0;
+  const KeptFeatures total = lastTurnTotals(keyframes, &turn_keyframes);
+  const int kept = total.kept, off = total.off_plane;
   std::printf("the start corner's last turn: %zu keyframes, %d features kept, %d of them off their plane\n",
-              keyframes.size() - first, kept, off);
-  ASSERT_GE(keyframes.size() - first, 3u);
+              turn_keyframes, kept, off);
+  ASSERT_GE(turn_keyframes, 3u);
   EXPECT_LT(off, 0.1 * kept) << off << " of " << kept << " kept features are not on their plane";
 }
