@@ -35,12 +35,30 @@ void ReferenceSelector::advanceTo(const Pose2D& robot) {
     return std::hypot(keyframe.x - robot.x, keyframe.y - robot.y) +
            (std::isfinite(robot.yaw) ? kHeadingWeight * std::abs(wrapToPi(keyframe.yaw - robot.yaw)) : 0.0);
   };
+  // The next keyframes are looked at, not only the next one: across a loop's seam the route's last
+  // keyframe and keyframe 0 share a place and differ only in heading, so a robot leaving the start
+  // heading like the last one never finds keyframe 0 closer, and stayed tracked to the last
+  // keyframe for ~1 m of the first leg although keyframes 1 and 2 were far closer (the fixes with
+  // the largest NEES in the simulator's room and gallery, every lap; docs/evaluation.md).
+  constexpr int kLookAhead = 2;
   const int n = size();
-  for (int steps = 0; steps < n; ++steps) {
-    if (!closed_ && tracked_ + 1 >= n) break;
-    const int following = (tracked_ + 1) % n;
-    if (distance(poses_[static_cast<std::size_t>(following)]) >= distance(poses_[static_cast<std::size_t>(tracked_)])) break;
-    tracked_ = following;
+  for (int steps = 0; steps < n;) {
+    int nearest = tracked_;
+    double nearest_distance = distance(poses_[static_cast<std::size_t>(tracked_)]);
+    int nearest_step = 0;
+    for (int ahead = 1; ahead <= kLookAhead && steps + ahead < n; ++ahead) {
+      if (!closed_ && tracked_ + ahead >= n) break;
+      const int keyframe = (tracked_ + ahead) % n;
+      const double d = distance(poses_[static_cast<std::size_t>(keyframe)]);
+      if (d < nearest_distance) {
+        nearest = keyframe;
+        nearest_distance = d;
+        nearest_step = ahead;
+      }
+    }
+    if (nearest_step == 0) break;
+    tracked_ = nearest;
+    steps += nearest_step;
   }
 }
 

@@ -56,3 +56,20 @@ TEST(ReferenceSelector, TrackingMovesOnNeverBackAndIgnoresNonFinitePositions) {
   selector.advanceTo(Pose2D(0.0, 0.9, -M_PI / 2.0));  // past the end of an open route
   EXPECT_EQ(selector.tracked(), 7);
 }
+
+TEST(ReferenceSelector, TrackingLeavesALoopsSeamForTheKeyframesAhead) {
+  // A loop whose last keyframe was taken back at the start, heading 0.1 rad right of keyframe 0
+  // (the teach run's turn in place stopped short): the robot leaves the start heading like the
+  // last keyframe. Keyframe 0 shares the last one's place, so it is never closer than the last
+  // one; keyframes 1 and 2, straight ahead, are.
+  const std::vector<Pose2D> poses{{0.0, 0.0, 0.0},        {0.5, 0.0, 0.0},          {1.0, 0.0, 0.0},
+                                  {1.0, 0.5, M_PI / 2.0}, {1.0, 1.0, M_PI},         {0.5, 1.0, M_PI},
+                                  {0.0, 1.0, -M_PI / 2.0}, {0.0, 0.5, -M_PI / 2.0}, {0.02, 0.0, -0.1}};
+  ReferenceSelector loop(poses, 1.0);
+  ASSERT_TRUE(loop.closedRoute());
+  loop.setTracked(8);
+  loop.advanceTo(Pose2D(0.4, 0.01, -0.1));  // 0.4 m down the first leg
+  EXPECT_EQ(loop.tracked(), 1);
+  loop.advanceTo(Pose2D(0.9, 0.0, -0.05));
+  EXPECT_EQ(loop.tracked(), 2);
+}

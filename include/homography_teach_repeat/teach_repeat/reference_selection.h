@@ -24,8 +24,8 @@ class ReferenceSelector {
   // The tracked keyframe and up to `neighbour_search` keyframes on each side, nearest first.
   std::vector<int> candidates(int neighbour_search) const;
 
-  // Moves on while `robot` (route frame) is closer to the next keyframe than to the tracked one
-  // (at most one lap per call). "Closer" weighs the heading too (0.5 m per radian): where the
+  // Moves on while `robot` (route frame) is closer to one of the next two keyframes than to the
+  // tracked one, to the nearest of them (at most one lap per call). "Closer" weighs the heading too (0.5 m per radian): where the
   // teach run turned in place the keyframes share a position, and tracking must follow the turn
   // (in the simulator, μ against a corner keyframe 60-90° away from the robot's heading gave
   // fixes 90° off). Non-finite positions are ignored.
