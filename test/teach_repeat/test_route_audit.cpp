@@ -90,3 +90,47 @@ TEST_F(RouteAuditTest, BadOptionsAndAnEmptyRouteAreRefused) {
   empty.keyframes.clear();
   EXPECT_EQ(auditRoute(empty, RouteAuditOptions()).status().code(), StatusCode::kInvalidInput);
 }
+
+// A keyframe whose plane its neighbours disagree with (keyframe 2's plane put 30 % further away):
+// the disagreement is reported, but enters the prediction only where it enters the repeat's own
+// covariance (`plane_sigma_from_neighbours`): at a corner the neighbours see another wall, and
+// that reads as disagreement too (docs/route_audit.md).
+TEST_F(RouteAuditTest, ThePlanesDisagreementEntersThePredictionOnlyWhereTheRepeatUsesIt) {
+  Route disagreeing = route();
+  ASSERT_TRUE(disagreeing.keyframes[2].plane);
+  disagreeing.keyframes[2].plane->distance *= 1.3;
+  RouteAuditOptions options;
+  options.aliasing = false;
+  const auto without = auditRoute(disagreeing, options);
+  options.repeat.plane_sigma_from_neighbours = true;
+  const auto with = auditRoute(disagreeing, options);
+  ASSERT_TRUE(without.isOk() && with.isOk());
+  const KeyframeAudit& reported = without->keyframes[1];
+  EXPECT_GT(reported.plane_distance_sigma, 0.1);
+  ASSERT_TRUE(reported.predicted_covariance && with->keyframes[1].predicted_covariance);
+  EXPECT_GT(positionSigma(with->keyframes[1]), 1.5 * positionSigma(reported));
+}
+
+// A fix matches only part of the plane features it sees; the audit expects as large a part as the
+// neighbouring keyframe matched, and the covariance of fewer matches is larger (1/n).
+TEST_F(RouteAuditTest, ThePredictionCountsTheMatchesANeighbourFinds) {
+  RouteAuditOptions options;
+  options.aliasing = false;  // the neighbour is matched all the same
+  const auto audit = auditRoute(route(), options);
+  ASSERT_TRUE(audit.isOk()) << audit.status().toString();
+  for (const KeyframeAudit& a : audit->keyframes) {
+    EXPECT_GT(a.neighbour_inliers, options.repeat.min_inliers) << a.keyframe;
+    EXPECT_GT(a.predicted_matches, 0) << a.keyframe;
+    EXPECT_GT(a.expected_match_fraction, 0.0) << a.keyframe;
+    EXPECT_LE(a.expected_match_fraction, 1.0) << a.keyframe;
+    EXPECT_NEAR(a.expected_match_fraction,
+                std::min(1.0, static_cast<double>(a.neighbour_inliers) / a.plane_features), 1e-12);
+  }
+  // A keyframe its neighbour hardly matches is given no fix, with the reason.
+  options.repeat.min_inliers = 100000;
+  const auto starved = auditRoute(route(), options);
+  ASSERT_TRUE(starved.isOk());
+  EXPECT_FALSE(starved->keyframes[0].predicted_covariance);
+  EXPECT_NE(starved->keyframes[0].prediction_problem.find("would match"), std::string::npos)
+      << starved->keyframes[0].prediction_problem;
+}

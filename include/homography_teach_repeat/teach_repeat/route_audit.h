@@ -54,10 +54,12 @@ struct KeyframeAudit {
   // (x forward, y left, yaw) of base_link for a fix probe_offset_m to the right; absent with the
   // reason in prediction_problem.
   std::optional<Eigen::Matrix3d> predicted_covariance;
+  int predicted_matches = 0;             // the plane features that fix sees
+  double expected_match_fraction = 1.0;  // of those, the part it matches (neighbour_inliers / plane_features)
   std::string prediction_problem;
   int lines = 0;
   int line_landmarks = 0;
-  int neighbour_inliers = -1;  // against the next keyframe (the previous for the last); -1: not run
+  int neighbour_inliers = -1;  // the better of the previous and the next keyframe against it; -1: a route of one keyframe
   int alias_keyframe = -1;     // the other keyframe that matched best with a pose that is not the taught one
   int alias_inliers = 0;
   std::vector<std::string> fast_hd_weaknesses;

@@ -1,17 +1,23 @@
 // evaluate_route_audit: does the route audit predict the repeat's spread? For every keyframe of a
 // route taught in a simulator world, the audit's predicted covariance of a Fast-HD fix `--offset`
 // to the right of the keyframe (teach_repeat/route_audit.h) against the measured one: `--samples`
-// images rendered at that pose (WorldRenderer, with the simulator's pixel noise and blur, a new
-// noise draw each), each localized against the keyframe by the repeat's localizer (fast_hd, that
-// keyframe only, no tracking), the errors taken against the true pose in the keyframe's base frame
-// (x along, y across, yaw). Per keyframe and axis: predicted σ and measured RMS error (bias
+// images rendered near that pose (WorldRenderer, with the simulator's pixel noise and blur), each
+// localized against the keyframe by the repeat's localizer (fast_hd, that keyframe only, no
+// tracking), the errors taken against each image's true pose in the keyframe's base frame (x along,
+// y across, yaw). Each image is taken at the probe moved by a uniform draw within ±`--jitter` [m]
+// along and across and ±`--jitter-yaw` [rad], as the repeat's robot passes a keyframe never twice
+// at one spot: images of one spot differ only by the renderer's grey-level noise, which moves the
+// keypoints by ~0.03 px, so their errors are one draw of the place's error repeated, not a spread
+// (`--jitter 0 --jitter-yaw 0` measures that). Per keyframe and axis: predicted σ and measured RMS error (bias
 // included), their ratio; over the route: the fraction of ratios within a factor of 2 and the
 // correlation of log σ_predicted with log RMS_measured across keyframes (docs/route_audit.md).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20]
-//                        [--pixel-sigma 0.5] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
-// `--pixel-sigma measure`: the pixel noise of the prediction is the simulator's own, measured first:
-// each keyframe's view rendered twice with independent noise, features matched between the two, and
-// σ_px = 1.4826 · MAD of the matched keypoints' displacement / √2 (per coordinate, both pooled).
+//                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
+// The simulator knows where every inlier truly is: each keyframe pixel's ray meets a wall, which
+// projects into the image's camera. The RMS of the inliers' distance from there (per coordinate,
+// pooled over the route) is printed and written; `--pixel-sigma measure` makes it / √2 the
+// prediction's pixel noise (both pixels of a match are noisy: the noise the fixes had, measured from
+// the geometry, not from their pose errors).
 // Writes OUT/route_audit_spread.json and OUT/route_audit_spread.png.
 #include <nlohmann/json.hpp>
 
@@ -21,12 +27,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <vector>
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
-#include "homography_teach_repeat/features/feature_extractor.h"
-#include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
@@ -56,34 +61,26 @@ double correlation(const std::vector<double>& a, const std::vector<double>& b) {
   return sab / std::sqrt(saa * sbb);
 }
 
-// Pixel noise of the rendered images as the feature detector sees it: the same view rendered twice
-// with independent noise, the displacement of the matched keypoints (robust std over all views).
-double measurePixelSigma(const PlanarWorld& world, const WorldRenderer& renderer, const std::vector<Pose2D>& camera_poses,
-                         FeatureType type, cv::RNG& rng) {
-  FeatureExtractor extractor(FeatureOptions{type, 1500});
-  std::vector<double> displacements;
-  for (const Pose2D& pose : camera_poses) {
-    const auto a = extractor.extract(renderer.render(world, pose, 1.0, rng));
-    const auto b = extractor.extract(renderer.render(world, pose, 1.0, rng));
-    if (!a || !b) continue;
-    const auto matches = matchFeatures(*a, *b, MatchOptions());
-    if (!matches) continue;
-    for (const PointMatch& m : toPointMatches(*a, *b, *matches)) {
-      const Eigen::Vector2d d = m.current - m.reference;
-      if (d.norm() > 3.0) continue;  // a wrong match, not noise
-      displacements.push_back(d.x());
-      displacements.push_back(d.y());
-    }
-  }
-  if (displacements.size() < 20) throw std::runtime_error("too few keypoints to measure the pixel noise");
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  const double centre = median(displacements);
-  std::vector<double> deviations;
-  for (const double d : displacements) deviations.push_back(std::abs(d - centre));
-  return 1.4826 * median(deviations) / std::sqrt(2.0);
+// Where a keyframe pixel truly is in another camera of the same world: its ray from the keyframe's
+// camera to the first wall it meets, projected into the other camera (the renderer's level
+// pinhole camera without distortion). None when the ray meets no wall, the floor or the ceiling.
+std::optional<Eigen::Vector2d> trueTransfer(const PlanarWorld& world, const PinholeCamera& camera, double camera_height,
+                                            const Pose2D& from, const Pose2D& to, const Eigen::Vector2d& pixel) {
+  const Eigen::Vector2d origin(from.x, from.y);
+  const Eigen::Vector2d forward(std::cos(from.yaw), std::sin(from.yaw)), right(std::sin(from.yaw), -std::cos(from.yaw));
+  const double xn = (pixel.x() - camera.cx()) / camera.fx();
+  const double yn = (pixel.y() - camera.cy()) / camera.fy();
+  const Eigen::Vector2d direction = forward + xn * right;
+  const auto hit = castRay(world, origin, direction);
+  if (!hit) return std::nullopt;
+  const double drop = yn * hit->range;  // how far below the camera the wall point is [m]
+  const double height = camera_height - drop;
+  if (height < 0.0 || height > world.walls[static_cast<std::size_t>(hit->wall)].height) return std::nullopt;
+  const Eigen::Vector2d relative = origin + hit->range * direction - Eigen::Vector2d(to.x, to.y);
+  const double depth = relative.dot(Eigen::Vector2d(std::cos(to.yaw), std::sin(to.yaw)));
+  if (!(depth > 0.0)) return std::nullopt;
+  const double across = relative.dot(Eigen::Vector2d(std::sin(to.yaw), -std::cos(to.yaw)));
+  return Eigen::Vector2d(camera.cx() + camera.fx() * across / depth, camera.cy() + camera.fy() * drop / depth);
 }
 
 }  // namespace
@@ -91,9 +88,10 @@ double measurePixelSigma(const PlanarWorld& world, const WorldRenderer& renderer
 int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
-                       {"pixel-sigma", "0.5"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
+                       {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
                        {"plots", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
+                      "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S] [--plots 0|1]");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
@@ -101,6 +99,9 @@ int main(int argc, char** argv) {
   }
   const int samples = static_cast<int>(args.integer("samples"));
   if (samples < 2) args.fail("--samples must be >= 2");
+  const double jitter = args.number("jitter");
+  const double jitter_yaw = args.number("jitter-yaw");
+  if (!(jitter >= 0.0) || !(jitter_yaw >= 0.0)) args.fail("--jitter and --jitter-yaw must be >= 0");
   try {
     const auto world = loadPlanarWorld(args.text("world"));
     if (!world) throw std::runtime_error(world.status().message());
@@ -119,16 +120,9 @@ int main(int argc, char** argv) {
     audit_options.probe_offset_m = args.number("offset");
     audit_options.aliasing = false;
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
-    if (measure_pixel_sigma) {
-      std::vector<Pose2D> views;
-      for (const auto& k : route->keyframes) views.push_back(k.pose.compose(Pose2D(m.x, m.y, m.yaw)));
-      audit_options.repeat.pose.pixel_sigma_px = measurePixelSigma(*world, renderer, views, route->info.feature_type, rng);
-      std::printf("pixel noise of the rendered images, measured: %.3f px\n", audit_options.repeat.pose.pixel_sigma_px);
-    } else {
-      audit_options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+    if (measure_pixel_sigma && camera.hasDistortion()) {
+      throw std::runtime_error("--pixel-sigma measure needs a camera without distortion (the true transfer is the pinhole's)");
     }
-    const auto audit = auditRoute(*route, audit_options);
-    if (!audit) throw std::runtime_error(audit.status().message());
 
     RepeatOptions repeat = audit_options.repeat;
     repeat.mode = RepeatMode::kFastHd;
@@ -141,53 +135,110 @@ int main(int argc, char** argv) {
     // The robot whose camera is `offset` to the right of the keyframe's (as the audit's probe).
     const Pose2D probe = mount.cameraToBase(PlanarPose(audit_options.probe_offset_m, 0.0, 0.0));
 
+    // The fixes: every keyframe with a plane, `samples` images around its probe.
+    struct Fixes {
+      Eigen::Vector3d second_moment = Eigen::Vector3d::Zero();  // of the error (along, across, yaw)
+      int localized = 0;
+      long inliers = 0;
+      // The inliers' true error (each match's current pixel against where its keyframe pixel truly
+      // is): the pixel noise the fixes actually had.
+      double match_error_squares = 0.0;
+      long match_coordinates = 0;
+      std::string failure;
+    };
+    std::vector<Fixes> fixes(route->keyframes.size());
+    for (std::size_t index = 0; index < route->keyframes.size(); ++index) {
+      const RouteKeyframe& keyframe = route->keyframes[index];
+      if (!keyframe.plane) continue;
+      Fixes& f = fixes[index];
+      const Pose2D probe_pose = keyframe.pose.compose(probe);  // the route frame is the world's (teach odometry exact)
+      const Pose2D keyframe_camera = keyframe.pose.compose(Pose2D(m.x, m.y, m.yaw));
+      for (int s = 0; s < samples; ++s) {
+        const Pose2D truth = probe_pose.compose(Pose2D(rng.uniform(-jitter, jitter), rng.uniform(-jitter, jitter),
+                                                       rng.uniform(-jitter_yaw, jitter_yaw)));
+        const Pose2D camera_pose = truth.compose(Pose2D(m.x, m.y, m.yaw));
+        const cv::Mat image = renderer.render(*world, camera_pose, 1.0, rng);
+        localizer->setTrackedKeyframe(static_cast<int>(index));
+        const auto estimate = localizer->localize(image);
+        if (!estimate || !estimate->has_pose || estimate->keyframe != static_cast<int>(index)) {
+          if (!estimate) f.failure = estimate.status().message();
+          continue;
+        }
+        // The error in the keyframe's base frame, as the prediction's covariance.
+        const Pose2D measured = keyframe.pose.inverse().compose(estimate->base_pose);
+        const Pose2D expected = keyframe.pose.inverse().compose(truth);
+        const Eigen::Vector3d e(measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw));
+        f.second_moment += e.cwiseProduct(e);
+        ++f.localized;
+        f.inliers += estimate->inliers;
+        if (camera.hasDistortion()) continue;
+        for (const PointMatch& match : estimate->inlier_matches) {
+          const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, match.reference);
+          if (!truly) continue;
+          f.match_error_squares += (match.current - *truly).squaredNorm();
+          f.match_coordinates += 2;
+        }
+      }
+    }
+    double match_error_squares = 0.0;
+    long match_coordinates = 0;
+    for (const Fixes& f : fixes) {
+      match_error_squares += f.match_error_squares;
+      match_coordinates += f.match_coordinates;
+    }
+    const double inlier_error =
+        match_coordinates > 0 ? std::sqrt(match_error_squares / static_cast<double>(match_coordinates)) : NAN;
+    // Both pixels of a match carry the noise (docs/math.md §3.4: σ on all 4n coordinates), so the
+    // error of the current pixel against the keyframe pixel's true transfer has about twice its variance.
+    const double measured_pixel_sigma = inlier_error / std::sqrt(2.0);
+    std::printf("the fixes' inliers: %.3f px rms per coordinate off their true position: pixel noise %.3f px\n",
+                inlier_error, measured_pixel_sigma);
+    if (measure_pixel_sigma) {
+      if (!std::isfinite(measured_pixel_sigma)) throw std::runtime_error("no inlier to measure the pixel noise with");
+      audit_options.repeat.pose.pixel_sigma_px = measured_pixel_sigma;
+    } else {
+      audit_options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+    }
+    const auto audit = auditRoute(*route, audit_options);
+    if (!audit) throw std::runtime_error(audit.status().message());
+
     nlohmann::json document;
     document["kind"] = "route_audit_spread";
     document["world"] = args.text("world");
     document["route"] = route->directory;
     document["setup"] = {{"offset_m", audit_options.probe_offset_m}, {"samples", samples},
                          {"pixel_sigma", audit_options.repeat.pose.pixel_sigma_px},
-                         {"pixel_sigma_measured", measure_pixel_sigma}, {"noise", render.noise_sigma},
+                         {"pixel_sigma_measured", measure_pixel_sigma}, {"inlier_error_px", inlier_error},
+                         {"jitter_m", jitter}, {"jitter_yaw_rad", jitter_yaw}, {"noise", render.noise_sigma},
                          {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height}};
     std::vector<double> log_predicted[3], log_measured[3];
     int within = 0, compared = 0;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
                 "ratio measured/predicted (along, across, heading)");
     for (const KeyframeAudit& a : audit->keyframes) {
-      nlohmann::json k = {{"keyframe", a.keyframe}, {"pose", {a.pose.x, a.pose.y, a.pose.yaw}}};
+      nlohmann::json k = {{"keyframe", a.keyframe}, {"pose", {a.pose.x, a.pose.y, a.pose.yaw}},
+                          {"neighbour_inliers", a.neighbour_inliers}, {"predicted_matches", a.predicted_matches},
+                          {"expected_match_fraction", a.expected_match_fraction}};
+      const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];
+      k["localized"] = f.localized;
+      if (f.localized > 0) k["inliers_mean"] = static_cast<double>(f.inliers) / f.localized;
+      if (f.match_coordinates > 0) {
+        k["match_error_px"] = std::sqrt(f.match_error_squares / static_cast<double>(f.match_coordinates));
+      }
       if (!a.predicted_covariance) {
         k["problem"] = a.prediction_problem.empty() ? "no prediction" : a.prediction_problem;
         document["keyframes"].push_back(k);
+        std::printf("%4d %8.2f %8.2f | no prediction: %s (localized %d of %d)\n", a.keyframe, a.pose.x, a.pose.y,
+                    k["problem"].get<std::string>().c_str(), f.localized, samples);
         continue;
       }
-      const Pose2D truth = a.pose.compose(probe);  // the route frame is the world's (teach odometry exact)
-      const Pose2D camera_pose = truth.compose(Pose2D(m.x, m.y, m.yaw));
-      Eigen::Vector3d second_moment = Eigen::Vector3d::Zero();
-      int localized = 0;
-      std::string failure;
-      for (int s = 0; s < samples; ++s) {
-        const cv::Mat image = renderer.render(*world, camera_pose, 1.0, rng);
-        localizer->setTrackedKeyframe(a.keyframe);
-        const auto estimate = localizer->localize(image);
-        if (!estimate || !estimate->has_pose || estimate->keyframe != a.keyframe) {
-          if (!estimate) failure = estimate.status().message();
-          continue;
-        }
-        // The error in the keyframe's base frame, as the prediction's covariance.
-        const Pose2D measured = a.pose.inverse().compose(estimate->base_pose);
-        const Pose2D expected = a.pose.inverse().compose(truth);
-        const Eigen::Vector3d e(measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw));
-        second_moment += e.cwiseProduct(e);
-        ++localized;
-      }
-      k["localized"] = localized;
-      if (localized < 2) {
-        k["problem"] = "localized " + std::to_string(localized) + " of " + std::to_string(samples) + ": " + failure;
+      if (f.localized < 2) {
+        k["problem"] = "localized " + std::to_string(f.localized) + " of " + std::to_string(samples) + ": " + f.failure;
         document["keyframes"].push_back(k);
-        std::printf("%4d %8.2f %8.2f | not localized: %s\n", a.keyframe, a.pose.x, a.pose.y, failure.c_str());
+        std::printf("%4d %8.2f %8.2f | not localized: %s\n", a.keyframe, a.pose.x, a.pose.y, f.failure.c_str());
         continue;
       }
-      const Eigen::Vector3d rms = (second_moment / localized).cwiseSqrt();
+      const Eigen::Vector3d rms = (f.second_moment / f.localized).cwiseSqrt();
       const Eigen::Vector3d sigma = a.predicted_covariance->diagonal().cwiseSqrt();
       nlohmann::json predicted, measured_rms, ratio;
       for (int i = 0; i < 3; ++i) {

@@ -43,6 +43,7 @@ nlohmann::json toJson(const KeyframeAudit& a) {
     k["predicted_sigma"] = {{"along_m", std::sqrt(c(0, 0))}, {"across_m", std::sqrt(c(1, 1))},
                             {"heading_rad", std::sqrt(c(2, 2))}};
     k["predicted_covariance"] = std::vector<double>(c.data(), c.data() + 9);
+    k["predicted_matches"] = a.predicted_matches;
   } else {
     k["predicted_sigma"] = nullptr;
     k["prediction_problem"] = a.prediction_problem;
@@ -56,15 +57,16 @@ int main(int argc, char** argv) {
   cli::Arguments args(
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
-       {"heading-sigma", "0"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"pixel-sigma", "0.35"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
+       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "0"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
       "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
-      "  [--heading-sigma RAD] (the repeat's covariance terms, as repeat_node's parameters)\n"
+      "  [--heading-sigma RAD] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance terms, as repeat_node's\n"
+      "  parameters)\n"
       "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
       "  [--min-lines N] (what makes a keyframe weak)\n"
       "  [--plots 0|1]");
@@ -89,6 +91,7 @@ int main(int argc, char** argv) {
   options.repeat.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.pose.tilt_sigma_rad = args.number("tilt-sigma");
   options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
+  options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.min_plane_features = args.integer("min-plane-features");
   options.max_position_sigma_m = args.number("max-position-sigma");
   options.max_heading_sigma_rad = args.number("max-heading-sigma");
