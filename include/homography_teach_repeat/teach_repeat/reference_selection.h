@@ -25,10 +25,10 @@ class ReferenceSelector {
   std::vector<int> candidates(int neighbour_search) const;
 
   // Moves on while `robot` (route frame) is closer to one of the next two keyframes than to the
-  // tracked one, to the nearest of them (at most one lap per call). "Closer" weighs the heading too (0.5 m per radian): where the
-  // teach run turned in place the keyframes share a position, and tracking must follow the turn
-  // (in the simulator, μ against a corner keyframe 60-90° away from the robot's heading gave
-  // fixes 90° off). Non-finite positions are ignored.
+  // tracked one, to the nearest of them (at most one lap per call). "Closer" weighs the heading
+  // too (0.5 m per radian): where the teach run turned in place the keyframes share a position,
+  // and tracking must follow the turn (in the simulator, μ against a corner keyframe 60-90° away
+  // from the robot's heading gave fixes 90° off). Non-finite positions are ignored.
   void advanceTo(const Pose2D& robot);
 
  private:

@@ -62,25 +62,24 @@ double correlation(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 // Where a keyframe pixel truly is in another camera of the same world: its ray from the keyframe's
-// camera to the first wall it meets, projected into the other camera (the renderer's level
-// pinhole camera without distortion). None when the ray meets no wall, the floor or the ceiling.
+// camera to the first wall it meets, projected into the other camera (level cameras, as the
+// renderer's). None when the ray meets no wall, the floor or the ceiling, or falls behind the other
+// camera.
 std::optional<Eigen::Vector2d> trueTransfer(const PlanarWorld& world, const PinholeCamera& camera, double camera_height,
                                             const Pose2D& from, const Pose2D& to, const Eigen::Vector2d& pixel) {
+  // Optical frame: x right, y down, z forward; the ray's parameter t is the depth along the axis.
+  const Eigen::Vector2d normalized = camera.pixelToNormalized(cv::Point2d(pixel.x(), pixel.y()));
   const Eigen::Vector2d origin(from.x, from.y);
-  const Eigen::Vector2d forward(std::cos(from.yaw), std::sin(from.yaw)), right(std::sin(from.yaw), -std::cos(from.yaw));
-  const double xn = (pixel.x() - camera.cx()) / camera.fx();
-  const double yn = (pixel.y() - camera.cy()) / camera.fy();
-  const Eigen::Vector2d direction = forward + xn * right;
+  const Eigen::Vector2d direction = Pose2D(0.0, 0.0, from.yaw).transformPoint(Eigen::Vector2d(1.0, -normalized.x()));
   const auto hit = castRay(world, origin, direction);
   if (!hit) return std::nullopt;
-  const double drop = yn * hit->range;  // how far below the camera the wall point is [m]
+  const double drop = normalized.y() * hit->range;  // how far below the camera the wall point is [m]
   const double height = camera_height - drop;
   if (height < 0.0 || height > world.walls[static_cast<std::size_t>(hit->wall)].height) return std::nullopt;
-  const Eigen::Vector2d relative = origin + hit->range * direction - Eigen::Vector2d(to.x, to.y);
-  const double depth = relative.dot(Eigen::Vector2d(std::cos(to.yaw), std::sin(to.yaw)));
-  if (!(depth > 0.0)) return std::nullopt;
-  const double across = relative.dot(Eigen::Vector2d(std::sin(to.yaw), -std::cos(to.yaw)));
-  return Eigen::Vector2d(camera.cx() + camera.fx() * across / depth, camera.cy() + camera.fy() * drop / depth);
+  const Eigen::Vector2d in_to = to.inverse().transformPoint(origin + hit->range * direction);  // (forward, left)
+  const cv::Point2d projected = camera.project(Eigen::Vector3d(-in_to.y(), drop, in_to.x()));
+  if (!std::isfinite(projected.x)) return std::nullopt;
+  return Eigen::Vector2d(projected.x, projected.y);
 }
 
 }  // namespace

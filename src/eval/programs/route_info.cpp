@@ -44,6 +44,7 @@ nlohmann::json toJson(const KeyframeAudit& a) {
                             {"heading_rad", std::sqrt(c(2, 2))}};
     k["predicted_covariance"] = std::vector<double>(c.data(), c.data() + 9);
     k["predicted_matches"] = a.predicted_matches;
+    k["expected_match_fraction"] = a.expected_match_fraction;
   } else {
     k["predicted_sigma"] = nullptr;
     k["prediction_problem"] = a.prediction_problem;
