@@ -2,7 +2,7 @@
 """ctest helper: checks evaluate_sequence's JSON against floors (and that its plots were drawn).
 
   check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M]
-                         [--max-median-heading DEG] [--plots]
+                         [--max-median-heading DEG] [--max-segment-nees-mean N] [--plots]
 Exit 1 naming the figure that misses its floor."""
 import argparse
 import json
@@ -16,6 +16,9 @@ def main():
     parser.add_argument("--min-localized", type=float, default=0.0)
     parser.add_argument("--max-median-position", type=float, default=float("inf"))
     parser.add_argument("--max-median-heading", type=float, default=float("inf"))
+    # The covariance's honesty per segment (a turn whose fixes are wrong while claiming mm shows
+    # here long before it moves the median).
+    parser.add_argument("--max-segment-nees-mean", type=float, default=float("inf"))
     parser.add_argument("--plots", action="store_true")
     args = parser.parse_args()
     with open(args.json) as f:
@@ -30,6 +33,10 @@ def main():
     heading = summary["heading_error_median_deg"]
     if args.max_median_heading != float("inf") and (heading is None or heading > args.max_median_heading):
         problems.append("median heading error %s deg > %.3f deg" % (heading, args.max_median_heading))
+    for segment in doc.get("segments", []):
+        nees = segment.get("nees_mean")
+        if args.max_segment_nees_mean != float("inf") and (nees is None or nees > args.max_segment_nees_mean):
+            problems.append("segment '%s': NEES mean %s > %.1f" % (segment.get("name"), nees, args.max_segment_nees_mean))
     if len(doc["frames"]) != summary["frames"] or not doc["keyframes"]:
         problems.append("frames or keyframes missing from the JSON")
     if args.plots:
