@@ -88,10 +88,11 @@ int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
-                       {"plots", "1"}},
+                       {"plane-sigma-from-neighbours", "0"}, {"plots", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
-                      "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S] [--plots 0|1]");
+                      "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S]\n"
+                      "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's) [--plots 0|1]");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
@@ -118,6 +119,7 @@ int main(int argc, char** argv) {
     RouteAuditOptions audit_options;
     audit_options.probe_offset_m = args.number("offset");
     audit_options.aliasing = false;
+    audit_options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
     if (measure_pixel_sigma && camera.hasDistortion()) {
       throw std::runtime_error("--pixel-sigma measure needs a camera without distortion (the true transfer is the pinhole's)");
@@ -209,7 +211,8 @@ int main(int argc, char** argv) {
                          {"pixel_sigma", audit_options.repeat.pose.pixel_sigma_px},
                          {"pixel_sigma_measured", measure_pixel_sigma}, {"inlier_error_px", inlier_error},
                          {"jitter_m", jitter}, {"jitter_yaw_rad", jitter_yaw}, {"noise", render.noise_sigma},
-                         {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height}};
+                         {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height},
+                         {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours}};
     std::vector<double> log_predicted[3], log_measured[3];
     int within = 0, compared = 0;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
