@@ -33,9 +33,9 @@ def main():
     heading = summary["heading_error_median_deg"]
     if args.max_median_heading != float("inf") and (heading is None or heading > args.max_median_heading):
         problems.append("median heading error %s deg > %.3f deg" % (heading, args.max_median_heading))
-    for segment in doc.get("segments", []):
+    for segment in doc.get("segments", []) if args.max_segment_nees_mean != float("inf") else []:
         nees = segment.get("nees_mean")
-        if args.max_segment_nees_mean != float("inf") and (nees is None or nees > args.max_segment_nees_mean):
+        if nees is None or nees > args.max_segment_nees_mean:
             problems.append("segment '%s': NEES mean %s > %.1f" % (segment.get("name"), nees, args.max_segment_nees_mean))
     if len(doc["frames"]) != summary["frames"] or not doc["keyframes"]:
         problems.append("frames or keyframes missing from the JSON")
