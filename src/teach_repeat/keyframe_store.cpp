@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
@@ -139,29 +140,48 @@ void KeyframeStore::triangulateLines(const PinholeCamera& camera, const CameraMo
 
 void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
   constexpr double kLargest = 0.5;  // the range PlanarPoseEstimatorOptions accepts
+  // Farther apart than this (normal [rad] or relative distance), two planes are not one surface
+  // seen twice with errors: at a corner the next keyframe sees the next wall (docs/math.md §3.6).
+  constexpr double kOtherSurface = 0.6;
+  struct Disagreement {
+    double angle = 0.0, distance = 0.0;
+    bool otherSurface() const { return angle > kOtherSurface || distance > kOtherSurface; }
+  };
   const int n = size();
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;
-    double angle_squares = 0.0, distance_squares = 0.0;
-    int neighbours = 0;
+    std::vector<Disagreement> neighbours;
     for (const int j : {k - 1, k + 1}) {
       if (j < 0 || j >= n || !keyframes_[static_cast<std::size_t>(j)].plane) continue;
       const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
       // This keyframe's camera in the neighbour's camera frame.
       const PlanarPose here = mount.baseToCamera(neighbour.base_pose.inverse().compose(reference.base_pose));
       const auto carried = transferPlane(*neighbour.plane, here);
-      const double angle = carried ? std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0))
-                                   : kLargest * std::sqrt(2.0);  // the neighbour's plane is behind this camera
-      const double distance = carried ? std::abs(carried->distance - reference.plane->distance) / reference.plane->distance
-                                      : kLargest * std::sqrt(2.0);
-      angle_squares += angle * angle;
-      distance_squares += distance * distance;
-      ++neighbours;
+      Disagreement d;  // the neighbour's plane behind this camera: as far off as can be
+      d.angle = carried ? std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0))
+                        : kLargest * std::sqrt(2.0);
+      d.distance = carried ? std::abs(carried->distance - reference.plane->distance) / reference.plane->distance
+                           : kLargest * std::sqrt(2.0);
+      neighbours.push_back(d);
     }
-    if (neighbours == 0) continue;
-    reference.plane_normal_sigma_rad = std::min(kLargest, std::sqrt(angle_squares / (2.0 * neighbours)));
-    reference.plane_distance_sigma = std::min(kLargest, std::sqrt(distance_squares / (2.0 * neighbours)));
+    if (neighbours.empty()) continue;
+    // Where one neighbour sees the same surface and the other another one (a wall's end), the
+    // other says nothing about this plane's error (the simulator's corners: 0-1° and exactly 90°).
+    // Where every neighbour is that far off, the disagreement is this plane's (a real street
+    // corner's mixtures of road and facade; a plane that its agreeing neighbours contradict).
+    const bool one_agrees = std::any_of(neighbours.begin(), neighbours.end(),
+                                        [](const Disagreement& d) { return !d.otherSurface(); });
+    double angle_squares = 0.0, distance_squares = 0.0;
+    int counted = 0;
+    for (const Disagreement& d : neighbours) {
+      if (one_agrees && d.otherSurface()) continue;
+      angle_squares += d.angle * d.angle;
+      distance_squares += d.distance * d.distance;
+      ++counted;
+    }
+    reference.plane_normal_sigma_rad = std::min(kLargest, std::sqrt(angle_squares / (2.0 * counted)));
+    reference.plane_distance_sigma = std::min(kLargest, std::sqrt(distance_squares / (2.0 * counted)));
   }
 }
 

@@ -46,8 +46,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   }
   PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
   // The plane's disagreement with its neighbours enters the prediction only where it enters the
-  // repeat's covariance: a change of wall between keyframes reads as disagreement too, and at the
-  // simulator's corners it predicted 0.1-0.15 m for fixes 1-24 mm off (docs/route_audit.md).
+  // repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6, docs/route_audit.md).
   if (options.repeat.plane_sigma_from_neighbours) {
     pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
     pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);

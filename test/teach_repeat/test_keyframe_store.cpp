@@ -241,3 +241,46 @@ TEST(KeyframeStore, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPlane) {
   }
   std::filesystem::remove_all(directory);
 }
+
+// plane_sigma_from_neighbours (docs/math.md §3.6): a neighbour whose plane, carried into this
+// keyframe's frame, is another surface (more than 0.6 rad or 60 % of the distance away) while the
+// other neighbour agrees, sees the next wall of a corner and says nothing about this plane's error.
+// The simulator's corners gave their keyframes the cap (0.5 rad) and made every fix there
+// over-cautious (room and gallery NEES means below 2). A plane that disagrees with every neighbour
+// keeps the cap. Here one keyframe's plane is turned by 0.8 rad (the gallery's diagonal wall is at
+// 45°): where it ends the route, its neighbour keeps its small σ; in the middle, it alone is capped.
+TEST(KeyframeStore, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError) {
+  const test_support::SyntheticWall wall;
+  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
+  const auto taught = loadRoute(directory);
+  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
+  const int n = static_cast<int>(taught->keyframes.size());
+  ASSERT_GE(n, 4);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_feature_tolerance_px = 0.0;  // the planes alone
+  options.plane_sigma_from_neighbours = true;
+  auto turned = [&](int keyframe) {
+    Route route = *taught;
+    ScenePlane& plane = *route.keyframes[static_cast<std::size_t>(keyframe)].plane;
+    const double c = std::cos(0.8), s = std::sin(0.8);
+    plane.normal = Eigen::Vector3d(c * plane.normal.x() - s * plane.normal.z(), plane.normal.y(),
+                                   s * plane.normal.x() + c * plane.normal.z()).normalized();
+    return route;
+  };
+  const auto agreeing = KeyframeStore::load(*taught, options);
+  ASSERT_TRUE(agreeing.isOk()) << agreeing.status().toString();
+  for (int k = 0; k < n; ++k) EXPECT_LT(agreeing->at(k).plane_normal_sigma_rad, 0.02) << "keyframe " << k;
+
+  const auto corner = KeyframeStore::load(turned(n - 1), options);
+  ASSERT_TRUE(corner.isOk()) << corner.status().toString();
+  EXPECT_NEAR(corner->at(n - 2).plane_normal_sigma_rad, agreeing->at(n - 2).plane_normal_sigma_rad, 0.01);
+  EXPECT_NEAR(corner->at(n - 2).plane_distance_sigma, agreeing->at(n - 2).plane_distance_sigma, 0.01);
+  EXPECT_GT(corner->at(n - 1).plane_normal_sigma_rad, 0.4);  // its only neighbour: it cannot tell
+
+  const auto odd = KeyframeStore::load(turned(1), options);
+  ASSERT_TRUE(odd.isOk()) << odd.status().toString();
+  EXPECT_GT(odd->at(1).plane_normal_sigma_rad, 0.4);
+  EXPECT_NEAR(odd->at(2).plane_normal_sigma_rad, agreeing->at(2).plane_normal_sigma_rad, 0.01);
+  std::filesystem::remove_all(directory);
+}

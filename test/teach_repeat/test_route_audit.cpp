@@ -93,8 +93,7 @@ TEST_F(RouteAuditTest, BadOptionsAndAnEmptyRouteAreRefused) {
 
 // A keyframe whose plane its neighbours disagree with (keyframe 2's plane put 30 % further away):
 // the disagreement is reported, but enters the prediction only where it enters the repeat's own
-// covariance (`plane_sigma_from_neighbours`): at a corner the neighbours see another wall, and
-// that reads as disagreement too (docs/route_audit.md).
+// covariance (`plane_sigma_from_neighbours`, docs/route_audit.md).
 TEST_F(RouteAuditTest, ThePlanesDisagreementEntersThePredictionOnlyWhereTheRepeatUsesIt) {
   Route disagreeing = route();
   ASSERT_TRUE(disagreeing.keyframes[2].plane);
