@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", "0.35"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
-       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "0"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
