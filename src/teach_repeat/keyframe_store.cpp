@@ -158,11 +158,12 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
       // This keyframe's camera in the neighbour's camera frame.
       const PlanarPose here = mount.baseToCamera(neighbour.base_pose.inverse().compose(reference.base_pose));
       const auto carried = transferPlane(*neighbour.plane, here);
-      Disagreement d;  // the neighbour's plane behind this camera: as far off as can be
-      d.angle = carried ? std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0))
-                        : kLargest * std::sqrt(2.0);
-      d.distance = carried ? std::abs(carried->distance - reference.plane->distance) / reference.plane->distance
-                           : kLargest * std::sqrt(2.0);
+      // The neighbour's plane behind this camera: as far off as can be.
+      Disagreement d{kLargest * std::sqrt(2.0), kLargest * std::sqrt(2.0)};
+      if (carried) {
+        d.angle = std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0));
+        d.distance = std::abs(carried->distance - reference.plane->distance) / reference.plane->distance;
+      }
       neighbours.push_back(d);
     }
     if (neighbours.empty()) continue;
