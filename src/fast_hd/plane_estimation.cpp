@@ -343,6 +343,12 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
       if (carried) planes[k] = *carried;
     }
   }
+  // The keyframes whose plane comes from a pair (their own or the one before), before any filling.
+  int last_estimated = -1;
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    if (planes[k]) last_estimated = static_cast<int>(k);
+  }
+  const bool first_estimated = planes[0].has_value();
   // Fill the gaps by transferring the previous plane along the motion (§2.2); before the first
   // estimate, backwards from the next one.
   for (std::size_t k = 1; k < planes.size(); ++k) {
@@ -354,6 +360,23 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
     if (planes[k] || !planes[k + 1]) continue;
     const auto moved = transferPlane(*planes[k + 1], pairs[k].odometry_motion.inverse());
     if (moved) planes[k] = *moved;
+  }
+  // A closed route's closing corner: the keyframes after the last estimate, from the last one
+  // backwards, get the first keyframe's plane carried back where they face nearer its heading than
+  // the last estimate's (§2.6).
+  if (options.closing_motion && first_estimated && last_estimated > 0) {
+    const int last = static_cast<int>(planes.size()) - 1;
+    double turn_to_first = options.closing_motion->theta;  // the first keyframe's heading seen from keyframe k
+    std::optional<ScenePlane> from_first = planes[0];
+    for (int k = last; k > last_estimated && from_first; --k) {
+      const PlanarPose to_next = k == last ? *options.closing_motion : pairs[static_cast<std::size_t>(k)].odometry_motion;
+      if (k < last) turn_to_first += to_next.theta;
+      const auto carried = transferPlane(*from_first, to_next.inverse());
+      from_first = carried ? std::optional<ScenePlane>(*carried) : std::nullopt;
+      double turn_from_last = 0.0;  // keyframe k's heading seen from the last estimate's
+      for (int j = last_estimated; j < k; ++j) turn_from_last += pairs[static_cast<std::size_t>(j)].odometry_motion.theta;
+      if (from_first && std::abs(wrapToPi(turn_to_first)) < std::abs(wrapToPi(turn_from_last))) planes[k] = *from_first;
+    }
   }
   for (std::size_t k = 0; k < planes.size(); ++k) {
     if (!planes[k]) {

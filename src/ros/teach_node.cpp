@@ -31,6 +31,7 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
         readParameter(nh, "first_plane_distance", options.first_plane_distance);
     options.planes_from_odometry = readParameter(nh, "planes_from_odometry", options.planes_from_odometry);
     options.estimate_keyframe_tilt = readParameter(nh, "estimate_keyframe_tilt", options.estimate_keyframe_tilt);
+    options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
     options.lines.max_angle_deg =
         readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
     options.lines.min_length_px = readParameter(nh, "line_min_length_px", options.lines.min_length_px);

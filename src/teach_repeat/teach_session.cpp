@@ -20,6 +20,9 @@ void TeachOptions::validate() const {
   if (!std::isfinite(first_plane_distance) || first_plane_distance < 0.0) {
     throw std::invalid_argument("first_plane_distance must be finite and >= 0 (0: no planes)");
   }
+  if (!std::isfinite(closed_route_gap) || closed_route_gap < 0.0) {
+    throw std::invalid_argument("closed_route_gap must be finite and >= 0 (0: no route is a loop)");
+  }
 }
 
 TeachSession::TeachSession(const TeachOptions& options, const CameraCalibration& calibration)
@@ -112,6 +115,11 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;
   plane_options.estimate_tilt = options_.estimate_keyframe_tilt;
+  std::vector<Pose2D> poses;
+  for (const RouteKeyframe& keyframe : route.keyframes) poses.push_back(keyframe.pose);
+  if (isClosedLoop(poses, options_.closed_route_gap)) {
+    plane_options.closing_motion = mount.baseToCamera(poses.back().inverse().compose(poses.front()));
+  }
   if (!pairs.empty()) {
     const auto estimated = options_.planes_from_odometry
                                ? estimatePlanesFromOdometry(pairs, camera_, plane_options)

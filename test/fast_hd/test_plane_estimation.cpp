@@ -259,6 +259,48 @@ TEST(PlaneEstimation, AKeyframeBeforeATurnTakesTheStraighterPair) {
   EXPECT_NEAR((next->planes[2].normal - misread_at_2->normal).norm(), 0.0, 1e-6);
 }
 
+// docs/math.md §2.6: a closed route's closing corner. Round a room of four walls, turning left in
+// place at each corner; at the end the camera turns from the last leg's wall towards the first
+// leg's. Without the closing motion both keyframes of that turn keep the last leg's wall (filled
+// forwards); with it the one facing nearer the first keyframe's heading takes the first keyframe's
+// wall, carried back, and the one facing nearer the last leg keeps that leg's.
+TEST(PlaneEstimation, TheClosingCornerOfALoopFacesTheFirstWall) {
+  // In the frame of camera 0: walls z = 5 (faced at heading 0), x = -4 (π/2), z = -3 (π), x = 3 (3π/2).
+  const std::vector<ScenePlane> walls = {ScenePlane{Eigen::Vector3d::UnitZ(), 5.0}, ScenePlane{-Eigen::Vector3d::UnitX(), 4.0},
+                                         ScenePlane{-Eigen::Vector3d::UnitZ(), 3.0}, ScenePlane{Eigen::Vector3d::UnitX(), 3.0}};
+  const double q = M_PI / 2;
+  const std::vector<PlanarPose> cameras = {
+      PlanarPose(0, 0, 0),          PlanarPose(0, 0.5, 0),        PlanarPose(0, 1, 0),         PlanarPose(0, 1, q / 2),
+      PlanarPose(0, 1, q),          PlanarPose(-0.5, 1, q),       PlanarPose(-1, 1, q),        PlanarPose(-1, 1, 1.5 * q),
+      PlanarPose(-1, 1, 2 * q),     PlanarPose(-1, 0.5, 2 * q),   PlanarPose(-1, 0, 2 * q),    PlanarPose(-1, 0, 2.5 * q),
+      PlanarPose(-1, 0, 3 * q),     PlanarPose(-0.5, 0, 3 * q),   PlanarPose(0, 0, 3 * q),
+      PlanarPose(0, 0, 3 * q + M_PI / 6), PlanarPose(0, 0, 3 * q + M_PI / 3)};  // the closing corner
+  auto faced = [&](std::size_t k) {
+    return walls[static_cast<std::size_t>(std::lround(cameras[k].theta / q)) % walls.size()];
+  };
+  const std::vector<ReferencePair> pairs = odometryPairs(cameras, faced);
+  OdometryPlaneOptions closed;
+  closed.closing_motion = cameras.back().inverse().compose(cameras.front());
+  ASSERT_NEAR(closed.closing_motion->theta, M_PI / 6, 1e-12);
+  const auto open_route = estimatePlanesFromOdometry(pairs, mathCamera());
+  const auto loop = estimatePlanesFromOdometry(pairs, mathCamera(), closed);
+  ASSERT_TRUE(open_route.isOk()) << open_route.status().toString();
+  ASSERT_TRUE(loop.isOk()) << loop.status().toString();
+  const std::size_t n = cameras.size();
+  auto expectWall = [&](const ScenePlane& plane, const ScenePlane& wall, std::size_t k, const char* what) {
+    const auto truth = transferPlane(wall, cameras[k]);
+    ASSERT_TRUE(truth.isOk());
+    EXPECT_NEAR((plane.normal - truth->normal).norm(), 0.0, 1e-6) << what << " keyframe " << k;
+    EXPECT_NEAR(plane.distance, truth->distance, 1e-6) << what << " keyframe " << k;
+  };
+  for (const std::size_t k : {n - 2, n - 1}) expectWall(open_route->planes[k], walls[3], k, "open");
+  expectWall(loop->planes[n - 2], walls[3], n - 2, "loop");  // 30° from the last leg, 60° from the first
+  expectWall(loop->planes[n - 1], walls[0], n - 1, "loop");  // 60° from the last leg, 30° from the first
+  for (std::size_t k = 0; k + 2 < n; ++k) {  // the rest of the route as without the closing motion
+    EXPECT_NEAR((loop->planes[k].normal - open_route->planes[k].normal).norm(), 0.0, 1e-12) << k;
+  }
+}
+
 // docs/math.md §2.5: the second camera tilted (pitch, roll) relative to the first. The planar-motion
 // formula reads the tilt as a wrong plane; the tilt-aware one recovers plane and tilt, for forward
 // and sideways motion, at any scale and sign of H; the same call on level data reports no tilt.

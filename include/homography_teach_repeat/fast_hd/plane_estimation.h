@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include <optional>
 #include <vector>
 
 #include "homography_teach_repeat/geometry/camera_tilt.h"
@@ -138,6 +139,13 @@ struct OdometryPlaneOptions {
   // simulator's gallery: 4.9° and 8 mm against 0.08° and 1 mm at keyframe 26; docs/math.md §2.6).
   // Negative: always the pair that starts at the keyframe.
   double straighter_pair_margin = 0.05;
+  // A closed route (the teach run ended where it started): the camera motion from the last keyframe
+  // to the first. The keyframes after the last pair with a plane of its own (the closing corner,
+  // turned in place) are otherwise filled forwards with the wall the last leg faced; each of them
+  // that faces nearer the first keyframe's heading than that leg's takes the first keyframe's plane
+  // instead, carried back along the closing motion, as the last keyframe of a corner inside the
+  // route takes the next leg's wall from its own pair (docs/math.md §2.6).
+  std::optional<PlanarPose> closing_motion;
 };
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,

@@ -39,6 +39,11 @@ struct TeachOptions {
   // its plane (docs/math.md §2.5). For images levelled by one constant mount rotation (no IMU): the
   // body's pitch and roll between two keyframes otherwise read as a wrong plane.
   bool estimate_keyframe_tilt = false;
+  // With planes_from_odometry: a route whose last keyframe is within closed_route_gap [m] of its
+  // first (at least 3 keyframes; 0: never) is a loop, and the keyframes of its closing corner that
+  // face the first leg take the first keyframe's wall (OdometryPlaneOptions::closing_motion). The
+  // same test as the repeat's and the controller's closed_route_gap.
+  double closed_route_gap = 1.0;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
