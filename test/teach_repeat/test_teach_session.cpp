@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -149,5 +150,12 @@ TEST(TeachSession, BadInputAndTooFewKeyframes) {
   bad.keyframes.angle = -1.0;
   EXPECT_EQ(TeachSession::start(bad, calibration(), Pose2D()).status().code(),
             StatusCode::kInvalidInput);
+  for (const double gap : {-0.5, std::nan("")}) {  // closed_route_gap: finite and >= 0
+    TeachOptions bad_gap = options;
+    bad_gap.closed_route_gap = gap;
+    const auto refused = TeachSession::start(bad_gap, calibration(), Pose2D());
+    EXPECT_EQ(refused.status().code(), StatusCode::kInvalidInput) << gap;
+    EXPECT_NE(refused.status().message().find("closed_route_gap"), std::string::npos) << refused.status().toString();
+  }
   std::filesystem::remove_all(dir);
 }
