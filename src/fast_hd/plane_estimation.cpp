@@ -366,16 +366,19 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
   // the last estimate's (§2.6).
   if (options.closing_motion && first_estimated && last_estimated > 0) {
     const int last = static_cast<int>(planes.size()) - 1;
-    double turn_to_first = options.closing_motion->theta;  // the first keyframe's heading seen from keyframe k
-    std::optional<ScenePlane> from_first = planes[0];
-    for (int k = last; k > last_estimated && from_first; --k) {
+    auto turnOfPair = [&](int j) { return pairs[static_cast<std::size_t>(j)].odometry_motion.theta; };
+    double turn_from_last = 0.0;  // keyframe k's heading seen from the last estimate's
+    for (int j = last_estimated; j < last; ++j) turn_from_last += turnOfPair(j);
+    double turn_to_first = 0.0;  // the first keyframe's heading seen from keyframe k
+    ScenePlane from_first = *planes[0];
+    for (int k = last; k > last_estimated; --k) {
       const PlanarPose to_next = k == last ? *options.closing_motion : pairs[static_cast<std::size_t>(k)].odometry_motion;
-      if (k < last) turn_to_first += to_next.theta;
-      const auto carried = transferPlane(*from_first, to_next.inverse());
-      from_first = carried ? std::optional<ScenePlane>(*carried) : std::nullopt;
-      double turn_from_last = 0.0;  // keyframe k's heading seen from the last estimate's
-      for (int j = last_estimated; j < k; ++j) turn_from_last += pairs[static_cast<std::size_t>(j)].odometry_motion.theta;
-      if (from_first && std::abs(wrapToPi(turn_to_first)) < std::abs(wrapToPi(turn_from_last))) planes[k] = *from_first;
+      turn_to_first += to_next.theta;
+      const auto carried = transferPlane(from_first, to_next.inverse());
+      if (!carried) break;  // (the first wall behind this camera: not the wall it faces)
+      from_first = *carried;
+      if (std::abs(wrapToPi(turn_to_first)) < std::abs(wrapToPi(turn_from_last))) planes[k] = from_first;
+      turn_from_last -= turnOfPair(k - 1);
     }
   }
   for (std::size_t k = 0; k < planes.size(); ++k) {

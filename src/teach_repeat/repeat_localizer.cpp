@@ -30,12 +30,6 @@ Status vet(const RepeatLocalizer::PoseCheck& check, const RepeatEstimate& estima
 
 }  // namespace
 
-bool isClosedRoute(const Route& route, double max_gap) {
-  std::vector<Pose2D> poses;
-  for (const auto& k : route.keyframes) poses.push_back(k.pose);
-  return isClosedLoop(poses, max_gap);
-}
-
 RepeatLocalizer::RepeatLocalizer(const Route& route, KeyframeStore keyframes, std::unique_ptr<KeyframeEstimator> estimator)
     : route_(route),
       keyframes_(std::move(keyframes)),

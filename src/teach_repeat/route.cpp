@@ -280,6 +280,12 @@ Status writeRouteIndex(const Route& route) {
   return writeFileAtomically(route.directory + "/" + kIndexName, std::string(out.c_str()) + "\n");
 }
 
+bool isClosedRoute(const Route& route, double max_gap) {
+  std::vector<Pose2D> poses;
+  for (const auto& k : route.keyframes) poses.push_back(k.pose);
+  return isClosedLoop(poses, max_gap);
+}
+
 Expected<Route> loadRoute(const std::string& directory) {
   const std::string index_path = directory + "/" + kIndexName;
   if (!fileExists(index_path)) {

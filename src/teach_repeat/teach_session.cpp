@@ -115,10 +115,9 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;
   plane_options.estimate_tilt = options_.estimate_keyframe_tilt;
-  std::vector<Pose2D> poses;
-  for (const RouteKeyframe& keyframe : route.keyframes) poses.push_back(keyframe.pose);
-  if (isClosedLoop(poses, options_.closed_route_gap)) {
-    plane_options.closing_motion = mount.baseToCamera(poses.back().inverse().compose(poses.front()));
+  if (isClosedRoute(route, options_.closed_route_gap)) {
+    plane_options.closing_motion =
+        mount.baseToCamera(route.keyframes.back().pose.inverse().compose(route.keyframes.front().pose));
   }
   if (!pairs.empty()) {
     const auto estimated = options_.planes_from_odometry

@@ -37,9 +37,6 @@
 
 namespace homography_teach_repeat {
 
-// Whether a route is a loop: at least 3 keyframes and the last within `max_gap` [m] of the first.
-bool isClosedRoute(const Route& route, double max_gap);
-
 class RepeatLocalizer {
  public:
   // Accepts (ok) or refuses (the reason) a pose estimate before it is used or remembered.

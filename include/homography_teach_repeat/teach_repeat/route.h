@@ -133,6 +133,9 @@ Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite)
 // unordered keyframe indices, a keyframe file that does not exist.
 Expected<Route> loadRoute(const std::string& directory);
 
+// Whether a route is a loop: at least 3 keyframes and the last within `max_gap` [m] of the first.
+bool isClosedRoute(const Route& route, double max_gap);
+
 // Per-keyframe data; kInvalidInput naming the file when it is missing or corrupt.
 Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe);
 Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe);
