@@ -36,6 +36,14 @@ void PlanarPoseEstimatorOptions::validate() const {
   }
 }
 
+namespace {
+// The plane's error model of docs/math.md §3.6: σ_N on each direction across the normal, σ_d.
+Eigen::Vector3d planeVariances(double normal_sigma_rad, double distance_sigma) {
+  return Eigen::Vector3d(normal_sigma_rad * normal_sigma_rad, normal_sigma_rad * normal_sigma_rad,
+                         distance_sigma * distance_sigma);
+}
+}  // namespace
+
 Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
                                                      const ScenePlane& plane, double normal_sigma_rad,
                                                      double distance_sigma) {
@@ -43,9 +51,7 @@ Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, c
   if (!(normal_sigma_rad > 0.0) && !(distance_sigma > 0.0)) return covariance;
   // Two directions across the normal, and the distance: central differences of the closed form.
   const Eigen::Vector3d n = plane.normal.normalized();
-  const Eigen::Vector3d helper = std::abs(n.y()) < 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitX();
-  const Eigen::Vector3d across1 = n.cross(helper).normalized();
-  const Eigen::Vector3d across2 = n.cross(across1);
+  const auto [across1, across2] = directionsAcrossNormal(n);
   constexpr double kStep = 1e-4;
   auto poseWith = [&](const Eigen::Vector3d& normal, double distance) -> Expected<Eigen::Vector3d> {
     ScenePlane perturbed = plane;
@@ -67,9 +73,7 @@ Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, c
     difference.z() = wrapToPi(difference.z());
     J.col(k) = difference / (2.0 * kStep);  // per radian across the normal, per unit relative distance
   }
-  const Eigen::Vector3d variances(normal_sigma_rad * normal_sigma_rad, normal_sigma_rad * normal_sigma_rad,
-                                  distance_sigma * distance_sigma);
-  covariance = J * variances.asDiagonal() * J.transpose();
+  covariance = J * planeVariances(normal_sigma_rad, distance_sigma).asDiagonal() * J.transpose();
   if (!covariance.allFinite()) return Status(StatusCode::kNotFinite, "plane uncertainty covariance is not finite");
   return covariance;
 }
@@ -99,6 +103,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   estimate.fast_hd_covariance = *covariance + model_covariance;
   estimate.pose = solution->pose;
   estimate.covariance = estimate.fast_hd_covariance;
+  estimate.model_covariance = model_covariance;
   estimate.H = dlt->H_unscaled / dlt->H_unscaled.norm();
   estimate.inliers.resize(matches.size());
   double sum = 0.0;
@@ -112,11 +117,22 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
     refinement.sigma_px = options.pixel_sigma_px;
     refinement.max_iterations = options.refinement_max_iterations;
     refinement.tilt_sigma_rad = options.tilt_sigma_rad;
+    const bool plane_uncertain = options.plane_normal_sigma_rad > 0.0 || options.plane_distance_sigma > 0.0;
+    refinement.plane_sensitivity = plane_uncertain;
     const auto refined =
         refinePlanarPose(solution->pose, {PlaneMatches{plane, matches}}, camera, refinement);
     if (!refined) return refined.status();
     estimate.pose = refined->pose;
-    estimate.covariance = refined->covariance + model_covariance;
+    // The plane's error moves the refined pose as the refinement's own derivative says.
+    Eigen::Matrix3d refined_model_covariance = Eigen::Matrix3d::Zero();
+    if (plane_uncertain) {
+      const Eigen::Matrix3d& J = refined->plane_jacobian;
+      refined_model_covariance =
+          J * planeVariances(options.plane_normal_sigma_rad, options.plane_distance_sigma).asDiagonal() * J.transpose();
+    }
+    refined_model_covariance(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
+    estimate.covariance = refined->covariance + refined_model_covariance;
+    estimate.model_covariance = refined_model_covariance;
     estimate.tilt = refined->tilt;
     estimate.height_offset = refined->height_offset;
     estimate.refined = true;

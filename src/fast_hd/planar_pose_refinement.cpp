@@ -197,6 +197,13 @@ bool accumulate(const PinholeCamera& camera, const State& state,
 
 }  // namespace
 
+std::pair<Eigen::Vector3d, Eigen::Vector3d> directionsAcrossNormal(const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d helper = std::abs(n.y()) < 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d across1 = n.cross(helper).normalized();
+  return {across1, n.cross(across1)};
+}
+
 Eigen::Matrix3d poseHomography(const PinholeCamera& camera, const PlanarPose& pose,
                                const ScenePlane& plane) {
   return camera.K() * pose.rotation21() *
@@ -312,7 +319,32 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
   result.rms_transfer_error_px =
       std::sqrt(eq.cost / (residuals_per_match * static_cast<double>(total)));
   result.iterations = iteration;
-  if (!result.pose.isFinite() || !result.covariance.allFinite()) {
+  if (options.plane_sensitivity && planes.size() == 1) {
+    // The minimum moves with the plane as −(JᵀJ)⁻¹ ∂(Jᵀr)/∂plane (the gradient stays zero); the
+    // closed form's derivative instead reads a few entries of H, and a leaning wall moved its
+    // depth several times more than the fit over every match does (docs/math.md §3.6).
+    const ScenePlane& plane = planes.front().plane;
+    const auto [across1, across2] = directionsAcrossNormal(plane.normal);
+    constexpr double kStep = 1e-5;
+    std::vector<PlaneMatches> perturbed = planes;
+    const std::array<std::pair<Eigen::Vector3d, double>, 3> steps{
+        {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep}}};
+    for (int k = 0; k < 3; ++k) {
+      Vector6d gradient[2];
+      for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? 1.0 : -1.0;
+        perturbed.front().plane.normal = (plane.normal.normalized() + sign * steps[k].first).normalized();
+        perturbed.front().plane.distance = plane.distance * (1.0 + sign * steps[k].second);
+        NormalEquations at;
+        if (!accumulate(camera, state, perturbed, options.cost, nuisance, false, &at)) {
+          return Status(StatusCode::kDegenerate, "pose refinement: a perturbed plane puts the camera on it");
+        }
+        gradient[side] = at.Jtr;
+      }
+      result.plane_jacobian.col(k) = -(JtJ_inverse * (gradient[0] - gradient[1]) / (2.0 * kStep)).head<3>();
+    }
+  }
+  if (!result.pose.isFinite() || !result.covariance.allFinite() || !result.plane_jacobian.allFinite()) {
     return Status(StatusCode::kNotFinite, "pose refinement produced a non-finite result");
   }
   return result;

@@ -196,7 +196,10 @@ Status HeadingAidedOdometry::update(double innovation, const Eigen::RowVector3d&
 }
 
 Expected<double> HeadingAidedOdometry::correctWithPose(const Pose2D& measured, const Eigen::Matrix3d& measurement_covariance,
-                                                       const Pose2D& odom_pose) {
+                                                       const Pose2D& odom_pose, const Eigen::Matrix3d& shared_covariance) {
+  if (!shared_covariance.allFinite()) {
+    return Status(StatusCode::kInvalidInput, "heading-aided odometry: the pose fix's shared covariance is not finite");
+  }
   if (!measured.isFinite() || !measurement_covariance.allFinite() ||
       !measurement_covariance.isApprox(measurement_covariance.transpose(), 1e-9) ||
       Eigen::LLT<Eigen::Matrix3d>(measurement_covariance).info() != Eigen::Success) {
@@ -233,10 +236,12 @@ Expected<double> HeadingAidedOdometry::correctWithPose(const Pose2D& measured, c
   estimate_ = Pose2D(estimate_.x + correction(0), estimate_.y + correction(1), wrapToPi(estimate_.yaw + correction(2)));
   const Eigen::Matrix3d keep = Eigen::Matrix3d::Identity() - gain;
   covariance_ = keep * covariance_ * keep.transpose() + gain * measurement_covariance * gain.transpose();
-  // The error shared by repeated fixes: the covariance is kept at least pose_common_fraction of
-  // the fix's (the positive part of the difference is added: P ⪰ c R afterwards).
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> lacking(options_.pose_common_fraction * measurement_covariance -
-                                                               covariance_);
+  // The error shared by repeated fixes: the covariance is kept at least the fix's shared part, its
+  // model covariance and pose_common_fraction of the rest (the positive part of the difference is
+  // added: P ⪰ R_shared + c (R − R_shared) afterwards).
+  const Eigen::Matrix3d shared =
+      shared_covariance + options_.pose_common_fraction * (measurement_covariance - shared_covariance);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> lacking(shared - covariance_);
   covariance_ += lacking.eigenvectors() * lacking.eigenvalues().cwiseMax(0.0).asDiagonal() *
                  lacking.eigenvectors().transpose();
   covariance_ = 0.5 * (covariance_ + covariance_.transpose());

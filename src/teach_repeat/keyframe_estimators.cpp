@@ -97,8 +97,11 @@ class PointEstimator : public KeyframeEstimator {
       Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
       J(0, 2) = -s * relative_base.x - c * relative_base.y;
       J(1, 2) = c * relative_base.x - s * relative_base.y;
-      const Eigen::Matrix3d total = estimate.covariance + J * reference.base_pose_covariance * J.transpose();
+      const Eigen::Matrix3d from_reference = J * reference.base_pose_covariance * J.transpose();
+      const Eigen::Matrix3d total = estimate.covariance + from_reference;
       estimate.covariance = 0.5 * (total + total.transpose());
+      const Eigen::Matrix3d shared = estimate.model_covariance + from_reference;
+      estimate.model_covariance = 0.5 * (shared + shared.transpose());
     }
     estimate.heading_correction = wrapToPi(estimate.base_pose.yaw - keyframeYaw(keyframe));
     return estimate;
@@ -153,6 +156,7 @@ class FastHdEstimator final : public PointEstimator {
     if (!same_wall.isOk()) return same_wall;
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(pose->pose);
     estimate->covariance = rotateCovariance(J * pose->covariance * J.transpose(), reference.base_pose.yaw);
+    estimate->model_covariance = rotateCovariance(J * pose->model_covariance * J.transpose(), reference.base_pose.yaw);
     estimate->covariance_known = true;
     return pose->pose;
   }

@@ -314,7 +314,7 @@ Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom
     if (!aligned.isOk()) return aligned;
     integrity_.addFix(stamp, true, std::nullopt, 0, estimate->inliers);
   } else {
-    const auto nis = filter_.correctWithPose(estimate->base_pose, estimate->covariance, *odom);
+    const auto nis = filter_.correctWithPose(estimate->base_pose, estimate->covariance, *odom, estimate->model_covariance);
     const auto innovation = filter_.takeInnovation();
     if (!nis) {
       // Refused by the filter's gate: the pose disagrees with it beyond what both admit.

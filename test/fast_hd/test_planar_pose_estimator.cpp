@@ -122,6 +122,12 @@ TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
   ASSERT_TRUE(with_plane.isOk());
   expectPoseNear(with_plane->pose, pixels_only->pose, 1e-12);  // the pose does not change
   EXPECT_GT(with_plane->covariance.trace(), pixels_only->covariance.trace());
+  // The plane's term is the model covariance, which every fix against this plane shares (the
+  // hybrid filter keeps it, docs/math.md §7.1): the covariance is the pixel noise's plus it.
+  EXPECT_EQ(pixels_only->model_covariance, Eigen::Matrix3d::Zero());
+  EXPECT_GT(with_plane->model_covariance.trace(), 0.0);
+  EXPECT_LT((with_plane->covariance - pixels_only->covariance - with_plane->model_covariance).cwiseAbs().maxCoeff(),
+            1e-15);
   options.plane_distance_sigma = -0.1;
   EXPECT_THROW(options.validate(), std::invalid_argument);
   options.plane_distance_sigma = 0.03;
@@ -155,6 +161,7 @@ TEST(PlanarPoseEstimator, HeadingSigmaAddsToTheHeadingVarianceOnly) {
   Eigen::Matrix3d added = Eigen::Matrix3d::Zero();
   added(2, 2) = 0.0007 * 0.0007;
   EXPECT_LT((with_floor->covariance - pixels_only->covariance - added).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((with_floor->model_covariance - added).cwiseAbs().maxCoeff(), 1e-15);
   EXPECT_LT((with_floor->fast_hd_covariance - pixels_only->fast_hd_covariance - added).cwiseAbs().maxCoeff(), 1e-15);
   for (const double bad : {-0.001, 0.06, std::nan(""), std::numeric_limits<double>::infinity()}) {
     options.heading_sigma_rad = bad;

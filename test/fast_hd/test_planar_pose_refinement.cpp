@@ -81,6 +81,51 @@ TEST(PlanarPoseRefinement, CovarianceAgreesWithMonteCarlo) {
   }
 }
 
+// The plane's error moves the refined pose as plane_jacobian says (docs/math.md §3.6): each
+// column against refining again with the plane turned by 1 mrad across its normal (both
+// directions) or moved by 0.1 % of its distance, from noisy matches; the distance column is
+// (Cx, Cz, 0): the translation scales with the distance.
+TEST(PlanarPoseRefinement, PlaneJacobianIsHowTheRefinedPoseMovesWithThePlane) {
+  std::mt19937_64 rng(21);
+  const PointMatches noisy = test_support::addPixelNoise(matchesOf(kPlane, 60, 5), 0.5, &rng);
+  PoseRefinementOptions options;
+  options.sigma_px = 0.5;
+  options.plane_sensitivity = true;
+  const auto refined = refinePlanarPose(kTruth, {{kPlane, noisy}}, mathCamera(800.0), options);
+  ASSERT_TRUE(refined.isOk()) << refined.status().toString();
+  const Eigen::Matrix3d& J = refined->plane_jacobian;
+  const auto [across1, across2] = directionsAcrossNormal(kPlane.normal);
+  EXPECT_NEAR(across1.dot(kPlane.normal), 0.0, 1e-12);
+  EXPECT_NEAR(across2.dot(kPlane.normal), 0.0, 1e-12);
+  EXPECT_NEAR(across1.y(), 0.0, 1e-12);  // the wall turned about the vertical
+  constexpr double kStep = 1e-3;
+  for (int k = 0; k < 3; ++k) {
+    ScenePlane moved = kPlane;
+    if (k < 2) moved.normal = (kPlane.normal + kStep * (k == 0 ? across1 : across2)).normalized();
+    if (k == 2) moved.distance = kPlane.distance * (1.0 + kStep);
+    PoseRefinementOptions again = options;
+    again.plane_sensitivity = false;
+    const auto other = refinePlanarPose(refined->pose, {{moved, noisy}}, mathCamera(800.0), again);
+    ASSERT_TRUE(other.isOk()) << other.status().toString();
+    const Eigen::Vector3d change(other->pose.x - refined->pose.x, other->pose.z - refined->pose.z,
+                                 wrapToPi(other->pose.theta - refined->pose.theta));
+    const Eigen::Vector3d predicted = kStep * J.col(k);
+    EXPECT_GT(predicted.norm(), 1e-5) << "column " << k;
+    // Within 10 %: JᵀJ stands in for the Hessian, whose residual term (noisy matches) and the
+    // height offset nuisance, which a leaning wall moves with it, make a few percent (4.7 % here).
+    EXPECT_LT((change - predicted).norm(), 0.1 * predicted.norm() + 1e-9) << "column " << k << ": moved "
+                                                                          << change.transpose() << ", predicted "
+                                                                          << predicted.transpose();
+  }
+  EXPECT_NEAR(J(0, 2), refined->pose.x, 1e-3 * std::abs(refined->pose.x));
+  EXPECT_NEAR(J(1, 2), refined->pose.z, 1e-3 * std::abs(refined->pose.z));
+  EXPECT_NEAR(J(2, 2), 0.0, 1e-4);  // the heading does not scale with the distance (1e-5 with the noise)
+  options.plane_sensitivity = false;
+  const auto without = refinePlanarPose(kTruth, {{kPlane, noisy}}, mathCamera(800.0), options);
+  ASSERT_TRUE(without.isOk());
+  EXPECT_EQ(without->plane_jacobian, Eigen::Matrix3d::Zero());
+}
+
 TEST(PlanarPoseRefinement, FailureStatuses) {
   const PointMatches matches = matchesOf(kPlane, 10, 5);
   const PinholeCamera camera = mathCamera(800.0);

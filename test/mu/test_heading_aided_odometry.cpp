@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -434,6 +435,32 @@ TEST(HeadingAidedOdometry, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRe
   EXPECT_GT(innovation->nis, 100.0);
   EXPECT_EQ(filter.refusedInARow(), 1);
   EXPECT_NEAR(filter.routePose(Pose2D())->x, 0.001, 1e-3);  // unchanged
+}
+
+// The part of a fix's covariance that every fix against the keyframe shares (its plane's own
+// error: RepeatEstimate::model_covariance) stays whole however many fixes are fused; only the rest
+// (this image's pixel noise) is shared by pose_common_fraction.
+TEST(HeadingAidedOdometry, ThePlanesSharedErrorIsNotAveragedAway) {
+  HeadingAidedOdometryOptions options;
+  options.pose_common_fraction = 0.5;
+  HeadingAidedOdometry filter(options);
+  const Eigen::Matrix3d pixel = Eigen::Vector3d(1e-4, 4e-4, 1e-5).asDiagonal();
+  Eigen::Matrix3d plane;  // a leaning wall: depth and heading move together
+  plane << 4e-4, 0.0, 1e-5, 0.0, 1e-6, 0.0, 1e-5, 0.0, 1e-6;
+  const Eigen::Matrix3d R = pixel + plane;
+  ASSERT_TRUE(filter.align(Pose2D(), Pose2D(), R).isOk());
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(filter.correctWithPose(Pose2D(0.001, 0.0, 0.0), R, Pose2D(), plane).isOk());
+  const Eigen::Matrix3d lacking = filter.covariance() - (plane + 0.5 * pixel);
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(lacking).eigenvalues().minCoeff(), -1e-15);
+  // Without it, half of the plane's share would have gone: x's variance 0.5 R = 2.5e-4 < 4.5e-4.
+  HeadingAidedOdometry fraction_only(options);
+  ASSERT_TRUE(fraction_only.align(Pose2D(), Pose2D(), R).isOk());
+  for (int i = 0; i < 50; ++i) ASSERT_TRUE(fraction_only.correctWithPose(Pose2D(0.001, 0.0, 0.0), R, Pose2D()).isOk());
+  EXPECT_LT(fraction_only.covariance()(0, 0), 0.6 * R(0, 0));
+  EXPECT_GE(filter.covariance()(0, 0), plane(0, 0) + 0.5 * pixel(0, 0) - 1e-15);
+  // A shared covariance that is not finite is refused.
+  const Eigen::Matrix3d bad = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(filter.correctWithPose(Pose2D(), R, Pose2D(), bad).status().code(), StatusCode::kInvalidInput);
 }
 
 TEST(HeadingAidedOdometry, PoseFixBadInputIsRefused) {

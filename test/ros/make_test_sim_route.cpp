@@ -2,13 +2,18 @@
 // same core: WaypointDriver on DifferentialDriveSim with perfect odometry, ending with a turn to
 // the start heading, WorldRenderer at 10 Hz, TeachSession with planes from odometry), for the
 // closed-loop rostest's fixture.
-//   make_test_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+//   make_test_sim_route [--seed=N] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+// --seed: the renderer's noise (default 1, the fixture's). With the odometry perfect, routes taught
+// with other seeds have the same keyframe poses and other draws of the images' noise, hence of the
+// planes' and the features' errors (evaluate_route_audit pools over such routes).
 // The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <stdexcept>
+#include <string>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
@@ -29,8 +34,19 @@ Eigen::Vector2d parsePoint(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  int seed = 1;
+  if (argc > 1 && std::string(argv[1]).rfind("--seed=", 0) == 0) {
+    try {
+      seed = std::stoi(std::string(argv[1]).substr(7));
+    } catch (const std::exception&) {
+      std::cerr << "make_test_sim_route: --seed needs an integer, got '" << argv[1] << "'\n";
+      return 2;
+    }
+    ++argv;
+    --argc;
+  }
   if (argc < 6) {
-    std::cerr << "usage: make_test_sim_route WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
+    std::cerr << "usage: make_test_sim_route [--seed=N] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
     return 2;
   }
   try {
@@ -69,7 +85,7 @@ int main(int argc, char** argv) {
     driving.turn_to_final_yaw = true;  // as sim_teach.launch: end facing the start heading
     driving.final_yaw = 0.0;
     htr::WaypointDriver driver(waypoints, driving);
-    cv::RNG rng(1);
+    cv::RNG rng(static_cast<std::uint64_t>(seed));
     const htr::Status driven = htr::driveWaypoints(
         driver, robot, 0.01, 0.1, 2000.0, [&](const htr::DifferentialDriveSim& sim, double t) {
           const cv::Mat image = renderer.render(*world, sim.truth().compose(mount), 1.0, rng);

@@ -461,6 +461,12 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const auto d = disagreeing->localize(wall_->imageAt(camera_pose));
   ASSERT_TRUE(d.isOk()) << d.status().toString();
   EXPECT_GT(d->covariance.trace(), 4.0 * a->covariance.trace());
+  // That growth is the estimate's model covariance (route frame), the part every fix against the
+  // keyframe shares (docs/math.md §7.1); without a plane error there is none.
+  EXPECT_EQ(a->model_covariance, Eigen::Matrix3d::Zero());
+  EXPECT_GT(d->model_covariance.trace(), 2.0 * a->covariance.trace());
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(d->covariance - d->model_covariance).eigenvalues().minCoeff(),
+            -1e-12);
 }
 
 // Routes that learn: the wall was repainted after the teach run (another texture on the same

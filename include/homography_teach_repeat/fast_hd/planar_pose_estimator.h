@@ -24,9 +24,10 @@ struct PlanarPoseEstimatorOptions {
   int refinement_max_iterations = 20;
   // The keyframe plane is itself an estimate (docs/math.md §3.6): the std of its normal's direction
   // [rad, each of the two directions across it] and of its distance [fraction of the distance].
-  // Their effect on the pose, J Σ_plane Jᵀ with J the Fast-HD pose's derivative with respect to
-  // the plane (central differences of the closed form), is added to both covariances; 0 and 0: the
-  // covariance of the pixel noise alone.
+  // Their effect on the pose, J Σ_plane Jᵀ with J the pose's derivative with respect to the plane,
+  // is added to both covariances (Fast-HD's: central differences of the closed form; the refined
+  // pose's: the refinement's own derivative, docs/math.md §3.6); 0 and 0: the covariance of the
+  // pixel noise alone.
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
   // The current camera's tilt relative to the keyframe's as a nuisance pair in the refinement
@@ -46,6 +47,9 @@ struct PlanarPoseEstimatorOptions {
 struct PlanarPoseEstimate {
   PlanarPose pose;                                       // refined if `refined`, else Fast-HD
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (Cx, Cz, θ12)
+  // The part of `covariance` that is not this image's pixel noise: the plane's and the heading
+  // floor's (options above). Every fix against the same keyframe plane shares it (docs/math.md §7.1).
+  Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
   PlanarPose fast_hd_pose;                               // the closed-form solution
   Eigen::Matrix3d fast_hd_covariance = Eigen::Matrix3d::Zero();
   bool refined = false;

@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include <utility>
 #include <vector>
 
 #include "homography_teach_repeat/geometry/scene_plane.h"
@@ -59,6 +60,9 @@ struct PoseRefinementOptions {
   // the body's pitch and roll on a road (about 1°, ~6 px at f = 360 px) remain in every image and
   // the 3-DoF model reads them as a wrong pose (docs/math.md §1.10).
   double tilt_sigma_rad = 0.0;
+  // Also return how the refined pose moves with the plane (RefinedPlanarPose::plane_jacobian; one
+  // plane only): what the plane's own uncertainty adds to the covariance (docs/math.md §3.6).
+  bool plane_sensitivity = false;
 };
 
 struct RefinedPlanarPose {
@@ -70,7 +74,16 @@ struct RefinedPlanarPose {
   Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();
   double rms_transfer_error_px = 0.0;  // RMS residual: Sampson distance or transfer error [px]
   int iterations = 0;
+  // With PoseRefinementOptions::plane_sensitivity: ∂(Cx, Cz, θ12)/∂(the normal turned towards
+  // each of directionsAcrossNormal [rad], the distance [relative]) of the refined pose, the
+  // derivative of the minimum with the matches held, −(JᵀJ)⁻¹ ∂(Jᵀr)/∂plane (docs/math.md §3.6).
+  Eigen::Matrix3d plane_jacobian = Eigen::Matrix3d::Zero();
 };
+
+// The two unit directions across a plane's normal in which its error is modelled (docs/math.md
+// §3.6): for a wall, the first horizontal (the wall turned about the vertical), the second the
+// wall leaning.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> directionsAcrossNormal(const Eigen::Vector3d& normal);
 
 // Status: kTooFewPoints (< 2 matches in total: 3 parameters, 4 residuals per match),
 // kInvalidInput (bad plane, non-finite initial pose or matches, bad options), kDegenerate

@@ -64,11 +64,13 @@ struct HeadingAidedOdometryOptions {
   // more than both admit (the simulator's gallery: poses 8 cm / 2.5° off at a corner claiming
   // millimetres, NEES 60000). Refusals count towards refused_before_reset as the μ fixes'.
   double pose_innovation_gate = 22.0;
-  // [0, 1] The share of a pose fix's covariance that repeated fixes do not average away (the
-  // keyframe's plane and taught pose, the same view): after a pose fix the filter's covariance is
-  // kept at least this fraction of the fix's (docs/math.md §7.1). 0: every fix independent (a
-  // robot standing at the end of the simulator's room for 20 s claimed a tenth of a millimetre
-  // with 1 mm errors: NEES 63).
+  // [0, 1] The share of a pose fix's pixel-noise covariance that repeated fixes against one
+  // keyframe do not average away: the keyframe's own features are in every fix (half of the
+  // noise, docs/math.md §3.4: σ on all 4n coordinates). After a pose fix the filter's covariance is
+  // kept at least the fix's shared part, its model covariance (the keyframe plane's own error)
+  // plus this fraction of the rest (docs/math.md §7.1). 0: every fix independent (a robot
+  // standing at the end of the simulator's room for 20 s claimed a tenth of a millimetre with 1 mm
+  // errors: NEES 63).
   double pose_common_fraction = 0.5;
   int refused_before_reset = 20;                // >= 1
   // A μ fix is taken only when it agrees with the previous frame's μ against the same keyframe:
@@ -172,12 +174,14 @@ class HeadingAidedOdometry {
   Expected<int> correctWithLineLandmarks(const LineLandmarkObservation& observation, const Pose2D& odom_pose);
 
   // A pose fix: base_link at `measured` (route frame) with the (x, y, yaw) `measurement_covariance`
-  // when the odometry read `odom_pose` (docs/math.md §7.1). Returns the normalized innovation
+  // when the odometry read `odom_pose` (docs/math.md §7.1); `shared_covariance` is the part of it
+  // that every fix against the same reference shares (RepeatEstimate::model_covariance). Returns the normalized innovation
   // squared (3 degrees of freedom). kInvalidInput: non-finite input or a covariance that is not
   // symmetric positive definite; kNoConsensus: not aligned, or refused by pose_innovation_gate
   // (after refused_before_reset refusals in a row the covariance is widened and the fix taken).
   Expected<double> correctWithPose(const Pose2D& measured, const Eigen::Matrix3d& measurement_covariance,
-                                   const Pose2D& odom_pose);
+                                   const Pose2D& odom_pose,
+                                   const Eigen::Matrix3d& shared_covariance = Eigen::Matrix3d::Zero());
   // The innovation of the last fix tried since the last call (nullopt: none; a line landmark fix
   // leaves its lines' innovation against the prior), for the integrity monitor.
   std::optional<FilterInnovation> takeInnovation() { return std::exchange(last_innovation_, std::nullopt); }

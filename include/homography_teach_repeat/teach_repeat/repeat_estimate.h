@@ -118,6 +118,10 @@ struct RepeatEstimate {
   Pose2D base_pose;       // base_link in the route frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw), route frame
   bool covariance_known = false;                         // false in classic mode
+  // The part of `covariance` that every fix against this reference shares, not this image's pixel
+  // noise: the keyframe plane's own error, the heading floor, a temporary reference's pose
+  // (PlanarPoseEstimate::model_covariance; the filter does not average it away, docs/math.md §7.1).
+  Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
   PlanarPose camera_relative;  // current camera in the reference camera frame (docs/math.md §1.1)
   double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
   double mu = 0.0;                  // mu mode: h12/h22 [px]
