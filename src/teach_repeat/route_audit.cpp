@@ -16,6 +16,11 @@
 namespace homography_teach_repeat {
 namespace {
 
+// The range of RouteAuditOptions::pixel_noise_from_neighbours' scale: a pair of keyframes at a
+// corner can see two walls, and its residual says more of that than of the pixels.
+constexpr double kSmallestNoiseScale = 0.5;
+constexpr double kLargestNoiseScale = 2.0;
+
 constexpr double kDegreesPerRadian = 180.0 / M_PI;
 
 std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
@@ -62,6 +67,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
 // homography's inliers and, where the reference has a plane, the base pose it gives.
 struct Relocalization {
   int inliers = 0;
+  double rms_transfer_error_px = 0.0;  // of the inliers against their homography
   std::optional<Pose2D> relative;  // current's base in reference's base frame
 };
 
@@ -75,12 +81,16 @@ Relocalization relocalize(const KeyframeReference& reference, const ImageFeature
     const auto pose = estimatePlanarPose(points, camera, *reference.plane, repeat.pose);
     if (pose) {
       result.inliers = static_cast<int>(pose->inliers.size());
+      result.rms_transfer_error_px = pose->rms_transfer_error_px;
       result.relative = mount.cameraToBase(pose->pose);
     }
     return result;
   }
   const auto homography = estimateHomographyRobust(points, repeat.pose.robust);
-  if (homography) result.inliers = static_cast<int>(homography->inliers.size());
+  if (homography) {
+    result.inliers = static_cast<int>(homography->inliers.size());
+    result.rms_transfer_error_px = homography->rms_transfer_error_px;
+  }
   return result;
 }
 
@@ -150,6 +160,34 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     }
   }
 
+  // How much of each keyframe the repeat matches from a nearby view: the better of its two
+  // neighbours' inliers against it (where the teach run turned in place one neighbour faces
+  // another wall; also without the aliasing search). And how noisy its matches are: the inliers'
+  // residual against their homography, over both neighbours (docs/route_audit.md).
+  std::vector<int> neighbour_inliers(static_cast<std::size_t>(n), -1);
+  std::vector<double> residual_squares(static_cast<std::size_t>(n), 0.0);
+  std::vector<long> residual_inliers(static_cast<std::size_t>(n), 0);
+  double route_squares = 0.0;
+  long route_inliers = 0;
+  for (int k = 0; k < n; ++k) {
+    for (const int neighbour : {k - 1, k + 1}) {
+      if (neighbour < 0 || neighbour >= n) continue;
+      const Relocalization found = relocalize(references[static_cast<std::size_t>(neighbour)],
+                                              references[static_cast<std::size_t>(k)].features, camera, mount,
+                                              options.repeat);
+      const auto i = static_cast<std::size_t>(k);
+      neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
+      if (found.inliers > 0 && std::isfinite(found.rms_transfer_error_px)) {
+        const double squares = found.rms_transfer_error_px * found.rms_transfer_error_px * found.inliers;
+        residual_squares[i] += squares;
+        residual_inliers[i] += found.inliers;
+        route_squares += squares;
+        route_inliers += found.inliers;
+      }
+    }
+  }
+  const double route_residual = route_inliers > 0 ? std::sqrt(route_squares / static_cast<double>(route_inliers)) : 0.0;
+
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = references[static_cast<std::size_t>(k)];
     KeyframeAudit a;
@@ -162,21 +200,19 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     a.plane_features = a.has_plane ? static_cast<int>(reference.features.keypoints.size()) : 0;
     a.lines = static_cast<int>(lines->at(k).lines.size());
     a.line_landmarks = static_cast<int>(lines->at(k).line_landmarks.size());
-    // How much of this keyframe the repeat matches from a nearby view: the better of its two
-    // neighbours' inliers against it (where the teach run turned in place one neighbour faces
-    // another wall; also without the aliasing search).
-    for (const int neighbour : {k - 1, k + 1}) {
-      if (neighbour < 0 || neighbour >= n) continue;
-      a.neighbour_inliers = std::max(
-          a.neighbour_inliers,
-          relocalize(references[static_cast<std::size_t>(neighbour)], reference.features, camera, mount, options.repeat)
-              .inliers);
+    a.neighbour_inliers = neighbour_inliers[static_cast<std::size_t>(k)];
+    const long inliers_here = residual_inliers[static_cast<std::size_t>(k)];
+    if (options.pixel_noise_from_neighbours && inliers_here > 0 && route_residual > 0.0) {
+      const double residual = std::sqrt(residual_squares[static_cast<std::size_t>(k)] / static_cast<double>(inliers_here));
+      a.pixel_noise_scale = std::clamp(residual / route_residual, kSmallestNoiseScale, kLargestNoiseScale);
     }
     if (a.has_plane) {
       a.plane_distance_m = reference.plane->distance;
       a.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
       a.plane_distance_sigma = reference.plane_distance_sigma;
-      const auto predicted = predictFix(reference, camera, mount, options);
+      RouteAuditOptions here = options;
+      here.repeat.pose.pixel_sigma_px *= a.pixel_noise_scale;
+      const auto predicted = predictFix(reference, camera, mount, here);
       if (!predicted) {
         a.prediction_problem = predicted.status().toString();
       } else {

@@ -1,7 +1,10 @@
 // The route audit on the synthetic wall route: what it predicts, and that it names what is missing.
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
@@ -55,6 +58,54 @@ TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
     ASSERT_TRUE(once->keyframes[k].predicted_covariance && twice->keyframes[k].predicted_covariance);
     EXPECT_NEAR(positionSigma(twice->keyframes[k]) / positionSigma(once->keyframes[k]), 2.0, 0.05) << k;
   }
+}
+
+// Each keyframe's pixel noise from its neighbours' matches (pixel_noise_from_neighbours,
+// docs/route_audit.md): on one wall the scales are near 1; keyframe 2's keypoints moved by 1.5 px
+// (a texture that matches less sharply) give it the largest scale, above its neighbours' (one of
+// their two pairs is with it) and a larger predicted σ; with the option off every scale is 1.
+TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  const auto plain = auditRoute(route(), options);
+  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
+  for (const KeyframeAudit& a : plain->keyframes) {
+    EXPECT_GT(a.pixel_noise_scale, 0.6) << a.keyframe;
+    EXPECT_LT(a.pixel_noise_scale, 1.6) << a.keyframe;
+  }
+
+  const std::string copy = test_support::makeTemporaryDirectory("htr_noisy_keyframe_route");
+  std::filesystem::copy(route().directory, copy, std::filesystem::copy_options::recursive |
+                                                     std::filesystem::copy_options::overwrite_existing);
+  auto noisy = loadRoute(copy);
+  ASSERT_TRUE(noisy.isOk()) << noisy.status().toString();
+  auto features = loadKeyframeFeatures(*noisy, 2);
+  ASSERT_TRUE(features.isOk()) << features.status().toString();
+  cv::RNG rng(3);
+  for (cv::KeyPoint& keypoint : features->keypoints) {
+    keypoint.pt.x += static_cast<float>(rng.gaussian(1.5));
+    keypoint.pt.y += static_cast<float>(rng.gaussian(1.5));
+  }
+  {
+    cv::FileStorage storage(copy + "/" + noisy->keyframes[2].features_file, cv::FileStorage::WRITE);
+    storage << "feature_type" << toString(features->type);
+    cv::write(storage, "keypoints", features->keypoints);
+    storage << "descriptors" << features->descriptors;
+  }
+  const auto audited = auditRoute(*noisy, options);
+  ASSERT_TRUE(audited.isOk()) << audited.status().toString();
+  const auto& k = audited->keyframes;
+  EXPECT_GT(k[2].pixel_noise_scale, 1.3 * plain->keyframes[2].pixel_noise_scale);
+  EXPECT_GT(k[2].pixel_noise_scale, k[1].pixel_noise_scale);
+  EXPECT_GT(k[2].pixel_noise_scale, k[3].pixel_noise_scale);
+  ASSERT_TRUE(k[2].predicted_covariance && plain->keyframes[2].predicted_covariance);
+  EXPECT_GT(positionSigma(k[2]), 1.3 * positionSigma(plain->keyframes[2]));
+
+  options.pixel_noise_from_neighbours = false;
+  const auto configured = auditRoute(*noisy, options);
+  ASSERT_TRUE(configured.isOk()) << configured.status().toString();
+  for (const KeyframeAudit& a : configured->keyframes) EXPECT_EQ(a.pixel_noise_scale, 1.0) << a.keyframe;
+  std::filesystem::remove_all(copy);
 }
 
 TEST_F(RouteAuditTest, AKeyframeWithoutAPlaneAndTooFewLinesIsNamed) {

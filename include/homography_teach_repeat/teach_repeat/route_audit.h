@@ -38,6 +38,11 @@ struct RouteAuditOptions {
   double alias_position_tolerance_m = 0.5;
   double alias_heading_tolerance_rad = 0.087;
   int min_lines = 10;
+  // Each keyframe's pixel noise relative to the route's: the residual of its inliers against their
+  // homography when its neighbours are matched to it, over the route's (clamped to [0.5, 2]),
+  // scales repeat.pose.pixel_sigma_px in its prediction. A wall whose texture matches less
+  // sharply gives noisier fixes (docs/route_audit.md). false: the configured σ everywhere.
+  bool pixel_noise_from_neighbours = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -60,6 +65,7 @@ struct KeyframeAudit {
   int lines = 0;
   int line_landmarks = 0;
   int neighbour_inliers = -1;  // the better of the previous and the next keyframe against it; -1: a route of one keyframe
+  double pixel_noise_scale = 1.0;  // the prediction's pixel σ over the configured one (pixel_noise_from_neighbours)
   int alias_keyframe = -1;     // the other keyframe that matched best with a pose that is not the taught one
   int alias_inliers = 0;
   std::vector<std::string> fast_hd_weaknesses;
