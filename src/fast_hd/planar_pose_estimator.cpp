@@ -42,6 +42,14 @@ Eigen::Vector3d planeVariances(double normal_sigma_rad, double distance_sigma) {
   return Eigen::Vector3d(normal_sigma_rad * normal_sigma_rad, normal_sigma_rad * normal_sigma_rad,
                          distance_sigma * distance_sigma);
 }
+
+// The model's part of a pose covariance (PlanarPoseEstimate::model_covariance): the plane's term
+// and the heading's own error floor (docs/math.md §3.8: a common rotation of the current camera
+// about its vertical axis moves θ12 and leaves the centre where it is).
+Eigen::Matrix3d withHeadingFloor(Eigen::Matrix3d plane_term, const PlanarPoseEstimatorOptions& options) {
+  plane_term(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
+  return plane_term;
+}
 }  // namespace
 
 Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
@@ -93,10 +101,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
                                                            options.plane_distance_sigma);
   if (!plane_covariance) return plane_covariance.status();
 
-  // The heading's own error floor (docs/math.md §3.8): a common rotation of the current camera
-  // about its vertical axis moves θ12 and leaves the centre where it is.
-  Eigen::Matrix3d model_covariance = *plane_covariance;
-  model_covariance(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
+  const Eigen::Matrix3d model_covariance = withHeadingFloor(*plane_covariance, options);
 
   PlanarPoseEstimate estimate;
   estimate.fast_hd_pose = solution->pose;
@@ -117,22 +122,18 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
     refinement.sigma_px = options.pixel_sigma_px;
     refinement.max_iterations = options.refinement_max_iterations;
     refinement.tilt_sigma_rad = options.tilt_sigma_rad;
-    const bool plane_uncertain = options.plane_normal_sigma_rad > 0.0 || options.plane_distance_sigma > 0.0;
-    refinement.plane_sensitivity = plane_uncertain;
+    refinement.plane_sensitivity = options.plane_normal_sigma_rad > 0.0 || options.plane_distance_sigma > 0.0;
     const auto refined =
         refinePlanarPose(solution->pose, {PlaneMatches{plane, matches}}, camera, refinement);
     if (!refined) return refined.status();
     estimate.pose = refined->pose;
-    // The plane's error moves the refined pose as the refinement's own derivative says.
-    Eigen::Matrix3d refined_model_covariance = Eigen::Matrix3d::Zero();
-    if (plane_uncertain) {
-      const Eigen::Matrix3d& J = refined->plane_jacobian;
-      refined_model_covariance =
-          J * planeVariances(options.plane_normal_sigma_rad, options.plane_distance_sigma).asDiagonal() * J.transpose();
-    }
-    refined_model_covariance(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
-    estimate.covariance = refined->covariance + refined_model_covariance;
-    estimate.model_covariance = refined_model_covariance;
+    // The plane's error moves the refined pose as the refinement's own derivative says (zero
+    // without plane uncertainty: not requested).
+    const Eigen::Matrix3d& J = refined->plane_jacobian;
+    estimate.model_covariance = withHeadingFloor(
+        J * planeVariances(options.plane_normal_sigma_rad, options.plane_distance_sigma).asDiagonal() * J.transpose(),
+        options);
+    estimate.covariance = refined->covariance + estimate.model_covariance;
     estimate.tilt = refined->tilt;
     estimate.height_offset = refined->height_offset;
     estimate.refined = true;

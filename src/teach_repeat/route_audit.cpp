@@ -30,14 +30,16 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 }
 
 // The covariance of a Fast-HD fix from the keyframe's plane features seen by a camera
-// `offset` to the right (exact matches: the covariance is the model's, not a sample's).
+// `offset` to the right (exact matches: the covariance is the model's, not a sample's), with the
+// repeat's pixel σ times `pixel_noise_scale` (RouteAuditOptions::pixel_noise_from_neighbours).
 struct PredictedFix {
   Eigen::Matrix3d covariance;
   int matches = 0;
 };
 
 Expected<PredictedFix> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
-                                  const CameraMount& mount, const RouteAuditOptions& options) {
+                                  const CameraMount& mount, const RouteAuditOptions& options,
+                                  double pixel_noise_scale) {
   const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
   const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
   PointMatches matches;
@@ -50,6 +52,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
     matches.push_back(PointMatch{Eigen::Vector2d(undistorted.x, undistorted.y), current});
   }
   PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
+  pose_options.pixel_sigma_px *= pixel_noise_scale;
   // The plane's disagreement with its neighbours enters the prediction only where it enters the
   // repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6, docs/route_audit.md).
   if (options.repeat.plane_sigma_from_neighbours) {
@@ -164,29 +167,30 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   // neighbours' inliers against it (where the teach run turned in place one neighbour faces
   // another wall; also without the aliasing search). And how noisy its matches are: the inliers'
   // residual against their homography, over both neighbours (docs/route_audit.md).
+  struct Residual {
+    double squares = 0.0;  // Σ inliers · rms²
+    long inliers = 0;
+    void add(const Relocalization& found) {
+      if (found.inliers <= 0 || !std::isfinite(found.rms_transfer_error_px)) return;
+      squares += found.rms_transfer_error_px * found.rms_transfer_error_px * found.inliers;
+      inliers += found.inliers;
+    }
+    double rms() const { return inliers > 0 ? std::sqrt(squares / static_cast<double>(inliers)) : 0.0; }
+  };
   std::vector<int> neighbour_inliers(static_cast<std::size_t>(n), -1);
-  std::vector<double> residual_squares(static_cast<std::size_t>(n), 0.0);
-  std::vector<long> residual_inliers(static_cast<std::size_t>(n), 0);
-  double route_squares = 0.0;
-  long route_inliers = 0;
+  std::vector<Residual> residuals(static_cast<std::size_t>(n));
+  Residual route_residual;
   for (int k = 0; k < n; ++k) {
+    const auto i = static_cast<std::size_t>(k);
     for (const int neighbour : {k - 1, k + 1}) {
       if (neighbour < 0 || neighbour >= n) continue;
-      const Relocalization found = relocalize(references[static_cast<std::size_t>(neighbour)],
-                                              references[static_cast<std::size_t>(k)].features, camera, mount,
-                                              options.repeat);
-      const auto i = static_cast<std::size_t>(k);
+      const Relocalization found =
+          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat);
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
-      if (found.inliers > 0 && std::isfinite(found.rms_transfer_error_px)) {
-        const double squares = found.rms_transfer_error_px * found.rms_transfer_error_px * found.inliers;
-        residual_squares[i] += squares;
-        residual_inliers[i] += found.inliers;
-        route_squares += squares;
-        route_inliers += found.inliers;
-      }
+      residuals[i].add(found);
+      route_residual.add(found);
     }
   }
-  const double route_residual = route_inliers > 0 ? std::sqrt(route_squares / static_cast<double>(route_inliers)) : 0.0;
 
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = references[static_cast<std::size_t>(k)];
@@ -201,18 +205,15 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     a.lines = static_cast<int>(lines->at(k).lines.size());
     a.line_landmarks = static_cast<int>(lines->at(k).line_landmarks.size());
     a.neighbour_inliers = neighbour_inliers[static_cast<std::size_t>(k)];
-    const long inliers_here = residual_inliers[static_cast<std::size_t>(k)];
-    if (options.pixel_noise_from_neighbours && inliers_here > 0 && route_residual > 0.0) {
-      const double residual = std::sqrt(residual_squares[static_cast<std::size_t>(k)] / static_cast<double>(inliers_here));
-      a.pixel_noise_scale = std::clamp(residual / route_residual, kSmallestNoiseScale, kLargestNoiseScale);
+    const double residual = residuals[static_cast<std::size_t>(k)].rms();
+    if (options.pixel_noise_from_neighbours && residual > 0.0 && route_residual.rms() > 0.0) {
+      a.pixel_noise_scale = std::clamp(residual / route_residual.rms(), kSmallestNoiseScale, kLargestNoiseScale);
     }
     if (a.has_plane) {
       a.plane_distance_m = reference.plane->distance;
       a.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
       a.plane_distance_sigma = reference.plane_distance_sigma;
-      RouteAuditOptions here = options;
-      here.repeat.pose.pixel_sigma_px *= a.pixel_noise_scale;
-      const auto predicted = predictFix(reference, camera, mount, here);
+      const auto predicted = predictFix(reference, camera, mount, options, a.pixel_noise_scale);
       if (!predicted) {
         a.prediction_problem = predicted.status().toString();
       } else {
