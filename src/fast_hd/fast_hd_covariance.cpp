@@ -192,7 +192,8 @@ Eigen::MatrixXd normalizedDltJacobian(const NormalizedDlt& dlt, const PointMatch
 
 Expected<Eigen::Matrix3d> fastHdCovariance(const NormalizedDlt& dlt, const PointMatches& matches,
                                            const PinholeCamera& camera, const ScenePlane& plane,
-                                           double sigma_px, bool second_order) {
+                                           double sigma_px, bool second_order,
+                                           Eigen::Matrix3d* reference_noise_covariance) {
   if (!std::isfinite(sigma_px) || sigma_px < 0.0) {
     return Status(StatusCode::kInvalidInput,
                   "pixel noise sigma must be finite and >= 0, got " + std::to_string(sigma_px));
@@ -214,15 +215,21 @@ Expected<Eigen::Matrix3d> fastHdCovariance(const NormalizedDlt& dlt, const Point
   const double s2 = dlt.current_normalization.scale;
   const Eigen::Vector4d scales(s1, s1, s2, s2);
   Eigen::Matrix4d solution_covariance = Eigen::Matrix4d::Zero();
+  Eigen::Matrix4d reference_solution_covariance = Eigen::Matrix4d::Zero();  // g's columns u, v
   for (const auto& m : matches) {
     const Eigen::Vector3d p = dlt.reference_normalization.transform * m.reference.homogeneous();
     const Eigen::Vector3d q = dlt.current_normalization.transform * m.current.homogeneous();
     const Eigen::Matrix4d g = (P * dltRowsTransposed(p, q)) *
                               (dltResidualJacobian(dlt.H_normalized, p, q) * scales.asDiagonal());
     solution_covariance.noalias() += g * g.transpose();
+    reference_solution_covariance.noalias() += g.leftCols<2>() * g.leftCols<2>().transpose();
   }
   solution_covariance *= sigma_px * sigma_px;
   const Eigen::Matrix<double, 3, 4>& J = factors->pose_jacobian;
+  if (reference_noise_covariance != nullptr) {
+    const Eigen::Matrix3d shared = sigma_px * sigma_px * J * reference_solution_covariance * J.transpose();
+    *reference_noise_covariance = 0.5 * (shared + shared.transpose());
+  }
   Eigen::Matrix3d covariance = J * solution_covariance * J.transpose();
   if (second_order) {
     // Second-order (Gaussian) propagation through the pose map g: the solution s* is linear in

@@ -95,7 +95,9 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   if (!dlt) return dlt.status();
   const auto solution = solveFastHd(dlt->H_unscaled, camera, plane);
   if (!solution) return solution.status();
-  const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px);
+  Eigen::Matrix3d reference_noise_covariance;
+  const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px,
+                                           /*second_order=*/true, &reference_noise_covariance);
   if (!covariance) return covariance.status();
   const auto plane_covariance = planeUncertaintyCovariance(dlt->H_unscaled, camera, plane, options.plane_normal_sigma_rad,
                                                            options.plane_distance_sigma);
@@ -109,6 +111,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   estimate.pose = solution->pose;
   estimate.covariance = estimate.fast_hd_covariance;
   estimate.model_covariance = model_covariance;
+  estimate.reference_noise_covariance = reference_noise_covariance;
   estimate.H = dlt->H_unscaled / dlt->H_unscaled.norm();
   estimate.inliers.resize(matches.size());
   double sum = 0.0;
@@ -134,6 +137,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
         J * planeVariances(options.plane_normal_sigma_rad, options.plane_distance_sigma).asDiagonal() * J.transpose(),
         options);
     estimate.covariance = refined->covariance + estimate.model_covariance;
+    estimate.reference_noise_covariance = refined->reference_noise_covariance;
     estimate.tilt = refined->tilt;
     estimate.height_offset = refined->height_offset;
     estimate.refined = true;

@@ -143,6 +143,9 @@ struct NormalEquations {
   Matrix6d JtJ = Matrix6d::Zero();
   Vector6d Jtr = Vector6d::Zero();
   Matrix6d measurement_information = Matrix6d::Zero();  // Σ Jᵢᵀ Rᵢ Rᵢᵀ Jᵢ
+  // The same over the reference image's coordinates (u, v) only: the part of the pixel noise that
+  // every fix against this reference shares.
+  Matrix6d reference_information = Matrix6d::Zero();
   double cost = 0.0;
 };
 
@@ -173,6 +176,8 @@ bool accumulate(const PinholeCamera& camera, const State& state,
       if (with_covariance) {
         const Matrix46d weighted = lin.measurement_jacobian.transpose() * lin.jacobian;
         eq->measurement_information.noalias() += weighted.transpose() * weighted;
+        // weighted's rows are the coordinates (u, v, u', v'): the first two the reference's.
+        eq->reference_information.noalias() += weighted.topRows<2>().transpose() * weighted.topRows<2>();
       }
     }
   }
@@ -313,6 +318,11 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
   // The marginal covariance of (Cx, Cz, θ12): height offset and tilt are nuisance parameters.
   result.covariance = covariance.topLeftCorner<3, 3>();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose());
+  const Matrix6d reference_covariance =
+      options.sigma_px * options.sigma_px * JtJ_inverse * eq.reference_information * JtJ_inverse;
+  result.reference_noise_covariance = reference_covariance.topLeftCorner<3, 3>();
+  result.reference_noise_covariance =
+      0.5 * (result.reference_noise_covariance + result.reference_noise_covariance.transpose());
   result.height_offset = state.height;
   result.tilt = cameraTilt(state.pitch, state.roll).T;
   const double residuals_per_match = options.cost == RefinementCost::kSampson ? 1.0 : 2.0;
@@ -344,7 +354,8 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
       result.plane_jacobian.col(k) = -(JtJ_inverse * (gradient[0] - gradient[1]) / (2.0 * kStep)).head<3>();
     }
   }
-  if (!result.pose.isFinite() || !result.covariance.allFinite() || !result.plane_jacobian.allFinite()) {
+  if (!result.pose.isFinite() || !result.covariance.allFinite() ||
+      !result.reference_noise_covariance.allFinite() || !result.plane_jacobian.allFinite()) {
     return Status(StatusCode::kNotFinite, "pose refinement produced a non-finite result");
   }
   return result;

@@ -32,8 +32,13 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 // The covariance of a Fast-HD fix from the keyframe's plane features seen by a camera
 // `offset` to the right (exact matches: the covariance is the model's, not a sample's), with the
 // repeat's pixel σ times `pixel_noise_scale` (RouteAuditOptions::pixel_noise_from_neighbours).
+// In base_link of the robot (x forward, y left, yaw); covariance = model + pixel noise, and
+// fix_to_fix the pixel noise's part that differs between fixes at the keyframe (the current
+// image's; the keyframe image's own noise and the model part every fix there shares).
 struct PredictedFix {
   Eigen::Matrix3d covariance;
+  Eigen::Matrix3d model;
+  Eigen::Matrix3d fix_to_fix;
   int matches = 0;
 };
 
@@ -62,8 +67,13 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   const auto estimate = estimatePlanarPoseFromInliers(matches, camera, *reference.plane, pose_options);
   if (!estimate) return estimate.status();
   const Eigen::Matrix3d J = mount.cameraToBaseJacobian(estimate->pose);
-  const Eigen::Matrix3d base = J * estimate->covariance * J.transpose();
-  return PredictedFix{0.5 * (base + base.transpose()), static_cast<int>(matches.size())};
+  const auto toBase = [&J](const Eigen::Matrix3d& camera_covariance) {
+    const Eigen::Matrix3d base = J * camera_covariance * J.transpose();
+    return Eigen::Matrix3d(0.5 * (base + base.transpose()));
+  };
+  return PredictedFix{toBase(estimate->covariance), toBase(estimate->model_covariance),
+                      toBase(estimate->covariance - estimate->model_covariance - estimate->reference_noise_covariance),
+                      static_cast<int>(matches.size())};
 }
 
 // Keyframe `current` localized against keyframe `reference` as the repeat would: the robust
@@ -231,7 +241,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
           a.prediction_problem = format("about %.0f of the %.0f plane features in view would match (min_inliers %.0f)",
                                         expected_matches, a.predicted_matches, options.repeat.min_inliers);
         } else {
-          a.predicted_covariance = Eigen::Matrix3d(predicted->covariance / a.expected_match_fraction);
+          // Only the pixel noise's part averages over the matches; the plane's error and the
+          // heading floor (the model part) do not depend on how many match.
+          const Eigen::Matrix3d pixel_noise = predicted->covariance - predicted->model;
+          a.predicted_covariance = Eigen::Matrix3d(predicted->model + pixel_noise / a.expected_match_fraction);
+          a.predicted_fix_to_fix_covariance = Eigen::Matrix3d(predicted->fix_to_fix / a.expected_match_fraction);
         }
       }
     } else {

@@ -191,6 +191,48 @@ TEST(FastHdCovariance, AgreesWithMonteCarlo) {
   }
 }
 
+// The reference image's share of the first-order covariance against a Monte Carlo with noise on
+// the reference pixels only (1 px); the rest against noise on the current pixels only. The
+// current camera has come 3 m closer to a wall 6 m away: the reference's pixels are magnified
+// twice in it, so the reference's share is the larger (not the half of equal shares).
+TEST(FastHdCovariance, ReferenceNoiseCovarianceIsTheReferenceImagesShare) {
+  const PlanarPose truth(0.3, 3.0, 0.1);
+  const ScenePlane wall = planeFromAngles(0.2, 0.1, 6.0);
+  std::mt19937_64 scene(8);
+  const PointMatches exact = sampleVisiblePlaneMatches(mathCamera(), wall, truth, 40, &scene);
+  const auto dlt = solveNormalizedDlt(exact);
+  Eigen::Matrix3d reference_part;
+  const auto predicted = fastHdCovariance(*dlt, exact, mathCamera(), wall, 1.0, /*second_order=*/false,
+                                          &reference_part);
+  ASSERT_TRUE(predicted.isOk());
+  const Eigen::Matrix3d current_part = *predicted - reference_part;
+  EXPECT_GT(reference_part(0, 0), 0.65 * (*predicted)(0, 0));
+  for (const bool noisy_reference : {true, false}) {
+    std::mt19937_64 rng(noisy_reference ? 41 : 42);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    const int trials = 600;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+    for (int t = 0; t < trials; ++t) {
+      PointMatches noisy = exact;
+      for (PointMatch& m : noisy) (noisy_reference ? m.reference : m.current) += Eigen::Vector2d(noise(rng), noise(rng));
+      const auto solution = solveFastHd(solveNormalizedDlt(noisy)->H_unscaled, mathCamera(), wall);
+      ASSERT_TRUE(solution.isOk());
+      const Eigen::Vector3d e = poseVector(solution->pose) - poseVector(truth);
+      sum += e;
+      outer += e * e.transpose();
+    }
+    const Eigen::Vector3d mean = sum / trials;
+    const Eigen::Matrix3d empirical = outer / trials - mean * mean.transpose();
+    const Eigen::Matrix3d& part = noisy_reference ? reference_part : current_part;
+    for (int k = 0; k < 3; ++k) {
+      const double ratio = std::sqrt(part(k, k) / empirical(k, k));
+      EXPECT_GT(ratio, 0.85) << (noisy_reference ? "reference" : "current") << " component " << k;
+      EXPECT_LT(ratio, 1.18) << (noisy_reference ? "reference" : "current") << " component " << k;
+    }
+  }
+}
+
 TEST(FastHdCovariance, RejectsBadSigmaAndForeignMatches) {
   const PointMatches matches = sceneAMatches(20, 9);
   const auto dlt = solveNormalizedDlt(matches);

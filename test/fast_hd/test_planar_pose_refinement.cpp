@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <random>
 
@@ -78,6 +80,52 @@ TEST(PlanarPoseRefinement, CovarianceAgreesWithMonteCarlo) {
     const double ratio = std::sqrt(predicted->covariance(k, k) / empirical(k, k));
     EXPECT_GT(ratio, 0.85) << "component " << k;
     EXPECT_LT(ratio, 1.18) << "component " << k;
+  }
+}
+
+// The reference image's share of the covariance (reference_noise_covariance, docs/math.md §3.4):
+// a Monte Carlo with noise on the reference pixels only spreads the pose as it says, one with noise
+// on the current pixels only as the rest. The current camera has come 3 m closer to a wall 6 m
+// away: the reference's pixels are magnified twice in it, so the reference's share is the larger
+// (not the half that equal shares would give).
+TEST(PlanarPoseRefinement, ReferenceNoiseCovarianceIsTheReferenceImagesShare) {
+  const PlanarPose truth(0.3, 3.0, 0.1);
+  const ScenePlane wall = planeFromAngles(0.2, 0.0, 6.0);
+  std::mt19937_64 scene(4);
+  const PointMatches exact = sampleVisiblePlaneMatches(mathCamera(800.0), wall, truth, 30, &scene);
+  PoseRefinementOptions options;
+  options.sigma_px = 1.0;
+  const auto predicted = refinePlanarPose(truth, {{wall, exact}}, mathCamera(800.0), options);
+  ASSERT_TRUE(predicted.isOk());
+  const Eigen::Matrix3d reference_part = predicted->reference_noise_covariance;
+  const Eigen::Matrix3d current_part = predicted->covariance - reference_part;
+  EXPECT_GT(reference_part.eigenvalues().real().minCoeff(), 0.0);
+  EXPECT_GT(current_part.eigenvalues().real().minCoeff(), 0.0);
+  EXPECT_GT(reference_part(0, 0), 0.65 * predicted->covariance(0, 0));
+  for (const bool noisy_reference : {true, false}) {
+    std::mt19937_64 rng(noisy_reference ? 31 : 32);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    const int trials = 500;
+    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int t = 0; t < trials; ++t) {
+      PointMatches noisy = exact;
+      for (PointMatch& m : noisy) (noisy_reference ? m.reference : m.current) += Eigen::Vector2d(noise(rng), noise(rng));
+      const auto refined = refinePlanarPose(truth, {{wall, noisy}}, mathCamera(800.0), options);
+      ASSERT_TRUE(refined.isOk());
+      const Eigen::Vector3d e(refined->pose.x - truth.x, refined->pose.z - truth.z,
+                              wrapToPi(refined->pose.theta - truth.theta));
+      sum += e;
+      outer += e * e.transpose();
+    }
+    const Eigen::Vector3d mean = sum / trials;
+    const Eigen::Matrix3d empirical = outer / trials - mean * mean.transpose();
+    const Eigen::Matrix3d& part = noisy_reference ? reference_part : current_part;
+    for (int k = 0; k < 3; ++k) {
+      const double ratio = std::sqrt(part(k, k) / empirical(k, k));
+      EXPECT_GT(ratio, 0.85) << (noisy_reference ? "reference" : "current") << " component " << k;
+      EXPECT_LT(ratio, 1.18) << (noisy_reference ? "reference" : "current") << " component " << k;
+    }
   }
 }
 

@@ -1,6 +1,7 @@
 // The route audit on the synthetic wall route: what it predicts, and that it names what is missing.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/core.hpp>
 
 #include <cmath>
@@ -183,4 +184,41 @@ TEST_F(RouteAuditTest, ThePredictionCountsTheMatchesANeighbourFinds) {
   EXPECT_FALSE(starved->keyframes[0].predicted_covariance);
   EXPECT_NE(starved->keyframes[0].prediction_problem.find("would match"), std::string::npos)
       << starved->keyframes[0].prediction_problem;
+}
+
+// Of a predicted fix, only the current image's pixel noise differs from one fix to the next at a
+// keyframe (predicted_fix_to_fix_covariance); the keyframe image's own noise and its plane's error
+// are the same in every fix there. So the plane's disagreement with its neighbours leaves the
+// fix-to-fix part as it is, and without it the fix-to-fix part is about half of the pixel noise's
+// (0.3 m beside a keyframe facing its wall, both images' pixels weigh about the same).
+TEST_F(RouteAuditTest, OnlyTheCurrentImagesNoiseDiffersFromFixToFix) {
+  Route disagreeing = route();
+  ASSERT_TRUE(disagreeing.keyframes[2].plane);
+  disagreeing.keyframes[2].plane->distance *= 1.3;
+  RouteAuditOptions options;
+  options.aliasing = false;
+  const auto without = auditRoute(disagreeing, options);
+  options.repeat.plane_sigma_from_neighbours = true;
+  const auto with = auditRoute(disagreeing, options);
+  ASSERT_TRUE(without.isOk() && with.isOk());
+  for (const auto* audit : {&*without, &*with}) {
+    for (const KeyframeAudit& a : audit->keyframes) {
+      ASSERT_TRUE(a.predicted_covariance && a.predicted_fix_to_fix_covariance) << a.keyframe;
+      const Eigen::Matrix3d shared = *a.predicted_covariance - *a.predicted_fix_to_fix_covariance;
+      EXPECT_GT(a.predicted_fix_to_fix_covariance->eigenvalues().real().minCoeff(), 0.0) << a.keyframe;
+      EXPECT_GE(shared.eigenvalues().real().minCoeff(), -1e-15) << a.keyframe;
+    }
+  }
+  const KeyframeAudit& plain = without->keyframes[1];
+  const KeyframeAudit& charged = with->keyframes[1];
+  EXPECT_GT(positionSigma(charged), 1.5 * positionSigma(plain));
+  EXPECT_LT((*charged.predicted_fix_to_fix_covariance - *plain.predicted_fix_to_fix_covariance).norm(),
+            1e-9 * plain.predicted_fix_to_fix_covariance->norm());
+  // Without the plane's term the rest is pixel noise and the heading floor (none by default).
+  ASSERT_EQ(options.repeat.pose.heading_sigma_rad, 0.0);
+  for (int k = 0; k < 3; ++k) {
+    const double share = (*plain.predicted_fix_to_fix_covariance)(k, k) / (*plain.predicted_covariance)(k, k);
+    EXPECT_GT(share, 0.3) << k;
+    EXPECT_LT(share, 0.7) << k;
+  }
 }

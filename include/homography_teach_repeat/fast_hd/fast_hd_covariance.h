@@ -45,10 +45,13 @@ Eigen::MatrixXd normalizedDltJacobian(const NormalizedDlt& dlt, const PointMatch
 // linear in the data to first order): when the position std is a sizeable fraction of the
 // baseline the first-order covariance is over-confident along its weakest directions (measured
 // in eval_fast_hd: scene B at 1 px, NEES 3.57 first-order, 3.1 with the term; scene A unchanged).
+// With `reference_noise_covariance`: the first-order part of it that the reference image's
+// coordinates (u, v) alone make, shared by every pose measured against the same reference image.
 // Status: kInvalidInput (sigma not finite or < 0, match count differs from the DLT's), or the
 // failures of solveFastHd.
 Expected<Eigen::Matrix3d> fastHdCovariance(const NormalizedDlt& dlt, const PointMatches& matches,
                                            const PinholeCamera& camera, const ScenePlane& plane,
-                                           double sigma_px, bool second_order = true);
+                                           double sigma_px, bool second_order = true,
+                                           Eigen::Matrix3d* reference_noise_covariance = nullptr);
 
 }  // namespace homography_teach_repeat

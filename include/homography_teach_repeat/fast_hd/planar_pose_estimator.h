@@ -50,6 +50,10 @@ struct PlanarPoseEstimate {
   // The part of `covariance` that is not this image's pixel noise: the plane's and the heading
   // floor's (options above). Every fix against the same keyframe plane shares it (docs/math.md §7.1).
   Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
+  // The part of `covariance` that the keyframe image's own pixel noise makes (docs/math.md §3.4):
+  // also shared by every fix against that keyframe; the rest (covariance − model_covariance −
+  // reference_noise_covariance) is the current image's noise, and differs from fix to fix.
+  Eigen::Matrix3d reference_noise_covariance = Eigen::Matrix3d::Zero();
   PlanarPose fast_hd_pose;                               // the closed-form solution
   Eigen::Matrix3d fast_hd_covariance = Eigen::Matrix3d::Zero();
   bool refined = false;

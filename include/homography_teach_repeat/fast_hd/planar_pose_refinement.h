@@ -68,6 +68,11 @@ struct PoseRefinementOptions {
 struct RefinedPlanarPose {
   PlanarPose pose;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (Cx, Cz, θ12)
+  // The part of `covariance` that the reference image's pixel noise makes (its coordinates u, v
+  // alone through the same sandwich): every pose measured against the same reference image shares
+  // it, whatever the current image (docs/math.md §3.4). The rest, the current image's noise and the
+  // tilt prior, differs from fix to fix.
+  Eigen::Matrix3d reference_noise_covariance = Eigen::Matrix3d::Zero();
   double height_offset = 0.0;                             // Cy [m] (0 unless estimated)
   // The current camera's estimated tilt T = Rx(pitch) Rz(roll) (identity unless estimated): the
   // model homography is K T R21 (I − C nᵀ/d) K⁻¹.

@@ -8,10 +8,20 @@
 // along and across and ±`--jitter-yaw` [rad], as the repeat's robot passes a keyframe never twice
 // at one spot: images of one spot differ only by the renderer's grey-level noise, which moves the
 // keypoints by ~0.03 px, so their errors are one draw of the place's error repeated, not a spread
-// (`--jitter 0 --jitter-yaw 0` measures that). Per keyframe and axis: predicted σ and measured RMS error (bias
-// included), their ratio; over the route: the fraction of ratios within a factor of 2 and the
-// correlation of log σ_predicted with log RMS_measured across keyframes (docs/route_audit.md).
-//   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20]
+// (`--jitter 0 --jitter-yaw 0` measures that). Per keyframe and axis, three comparisons
+// (docs/route_audit.md):
+//  - the error: predicted σ against the measured RMS error (bias included), their ratio;
+//  - the spread from fix to fix: the part of the prediction that differs between fixes at the
+//    keyframe (KeyframeAudit::predicted_fix_to_fix_covariance, the current image's pixel noise)
+//    against the fixes' standard deviation about their linear trend in the offsets (what the fixes
+//    share, the plane's error and the keyframe image's noise, changes smoothly with the pose);
+//  - the bias: the fixes' mean error over the σ of the shared part (plus the spread's part of a
+//    mean): one draw of a standard normal per keyframe and axis if the model is right, so judged
+//    over the route (the fraction within 2 σ, the mean of z²).
+// Over the route: the fraction of ratios within a factor of 2 and the correlation of the logs
+// across keyframes. The inliers' errors grouped by keyframe keypoint also give the share of a
+// match's error that is the keyframe keypoint's own (1/2 for iid noise in both images).
+//   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
 //                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
 // The simulator knows where every inlier truly is: each keyframe pixel's ray meets a wall, which
 // projects into the image's camera. The RMS of the inliers' distance from there (per coordinate,
@@ -19,6 +29,7 @@
 // prediction's pixel noise (both pixels of a match are noisy: the noise the fixes had, measured from
 // the geometry, not from their pose errors).
 // Writes OUT/route_audit_spread.json and OUT/route_audit_spread.png.
+#include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -27,6 +38,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <vector>
 
@@ -82,6 +94,25 @@ std::optional<Eigen::Vector2d> trueTransfer(const PlanarWorld& world, const Pinh
   return Eigen::Vector2d(projected.x, projected.y);
 }
 
+// The spread of a keyframe's fixes: per axis the standard deviation of the errors about their
+// least-squares plane in the images' offsets from the probe (1, along, across, yaw; RSS / (n − 4)).
+// What a fix there shares with every other, the keyframe plane's error and the keyframe image's
+// own noise, is a bias that changes smoothly with where the image was taken (the plane's error
+// moves a pose in proportion to its distance from the keyframe: ±17 % over ±5 cm at 0.3 m); the
+// fit takes that out and leaves what differs from image to image (docs/route_audit.md).
+constexpr int kMinSpreadSamples = 6;
+Eigen::Vector3d spreadAboutTrend(const std::vector<Eigen::Vector3d>& offsets, const std::vector<Eigen::Vector3d>& errors) {
+  const auto n = static_cast<Eigen::Index>(errors.size());
+  Eigen::MatrixXd design(n, 4);
+  Eigen::MatrixXd observed(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    design.row(i) << 1.0, offsets[static_cast<std::size_t>(i)].transpose();
+    observed.row(i) = errors[static_cast<std::size_t>(i)].transpose();
+  }
+  const Eigen::MatrixXd fitted = design * design.colPivHouseholderQr().solve(observed);
+  return ((observed - fitted).colwise().squaredNorm().transpose() / static_cast<double>(n - 4)).cwiseSqrt();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,7 +130,9 @@ int main(int argc, char** argv) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
   }
   const int samples = static_cast<int>(args.integer("samples"));
-  if (samples < 2) args.fail("--samples must be >= 2");
+  if (samples < kMinSpreadSamples) {
+    args.fail("--samples must be >= " + std::to_string(kMinSpreadSamples) + " (the spread is taken about a fit of 4 numbers)");
+  }
   const double jitter = args.number("jitter");
   const double jitter_yaw = args.number("jitter-yaw");
   if (!(jitter >= 0.0) || !(jitter_yaw >= 0.0)) args.fail("--jitter and --jitter-yaw must be >= 0");
@@ -141,12 +174,18 @@ int main(int argc, char** argv) {
     // The fixes: every keyframe with a plane, `samples` images around its probe.
     struct Fixes {
       Eigen::Vector3d second_moment = Eigen::Vector3d::Zero();  // of the error (along, across, yaw)
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      // Per localized image: where it was taken relative to the probe (along, across, yaw) and its error.
+      std::vector<Eigen::Vector3d> offsets, errors;
       int localized = 0;
       long inliers = 0;
       // The inliers' true error (each match's current pixel against where its keyframe pixel truly
       // is): the pixel noise the fixes actually had.
       double match_error_squares = 0.0;
       long match_coordinates = 0;
+      // The same errors grouped by the keyframe keypoint they start from (its pixel): how much of
+      // a match's error is that keypoint's own, the same in every fix, and how much the image's.
+      std::map<std::pair<double, double>, std::vector<Eigen::Vector2d>> errors_by_keypoint;
       std::string failure;
     };
     std::vector<Fixes> fixes(route->keyframes.size());
@@ -157,8 +196,11 @@ int main(int argc, char** argv) {
       const Pose2D probe_pose = keyframe.pose.compose(probe);  // the route frame is the world's (teach odometry exact)
       const Pose2D keyframe_camera = keyframe.pose.compose(Pose2D(m.x, m.y, m.yaw));
       for (int s = 0; s < samples; ++s) {
-        const Pose2D truth = probe_pose.compose(Pose2D(rng.uniform(-jitter, jitter), rng.uniform(-jitter, jitter),
-                                                       rng.uniform(-jitter_yaw, jitter_yaw)));
+        // Drawn in this order (yaw, across, along) so that a seed gives the images it gave before.
+        const double yaw = rng.uniform(-jitter_yaw, jitter_yaw);
+        const double across = rng.uniform(-jitter, jitter);
+        const Pose2D offset(rng.uniform(-jitter, jitter), across, yaw);
+        const Pose2D truth = probe_pose.compose(offset);
         const Pose2D camera_pose = truth.compose(Pose2D(m.x, m.y, m.yaw));
         const cv::Mat image = renderer.render(*world, camera_pose, 1.0, rng);
         localizer->setTrackedKeyframe(static_cast<int>(index));
@@ -172,6 +214,9 @@ int main(int argc, char** argv) {
         const Pose2D expected = keyframe.pose.inverse().compose(truth);
         const Eigen::Vector3d e(measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw));
         f.second_moment += e.cwiseProduct(e);
+        f.sum += e;
+        f.offsets.emplace_back(offset.x, offset.y, offset.yaw);
+        f.errors.push_back(e);
         ++f.localized;
         f.inliers += estimate->inliers;
         if (camera.hasDistortion()) continue;
@@ -180,6 +225,7 @@ int main(int argc, char** argv) {
           if (!truly) continue;
           f.match_error_squares += (match.current - *truly).squaredNorm();
           f.match_coordinates += 2;
+          f.errors_by_keypoint[{match.reference.x(), match.reference.y()}].push_back(match.current - *truly);
         }
       }
     }
@@ -191,6 +237,30 @@ int main(int argc, char** argv) {
     }
     const double inlier_error =
         match_coordinates > 0 ? std::sqrt(match_error_squares / static_cast<double>(match_coordinates)) : NAN;
+    // Of the keypoints matched in at least two fixes: the variance of their errors (per coordinate)
+    // and the part within each keypoint's fixes; the rest, the keypoint's own, is the share every
+    // fix against the keyframe has in common (iid noise in both images: 1/2).
+    double total_squares = 0.0, within_squares = 0.0;
+    long total_count = 0, within_dof = 0;
+    for (const Fixes& f : fixes) {
+      for (const auto& [pixel, errors] : f.errors_by_keypoint) {
+        if (errors.size() < 2) continue;
+        Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+        for (const Eigen::Vector2d& e : errors) mean += e / static_cast<double>(errors.size());
+        for (const Eigen::Vector2d& e : errors) {
+          total_squares += e.squaredNorm();
+          within_squares += (e - mean).squaredNorm();
+        }
+        total_count += 2 * static_cast<long>(errors.size());
+        within_dof += 2 * (static_cast<long>(errors.size()) - 1);
+      }
+    }
+    const double match_error_variance = total_count > 0 ? total_squares / static_cast<double>(total_count) : NAN;
+    const double within_variance = within_dof > 0 ? within_squares / static_cast<double>(within_dof) : NAN;
+    const double keyframe_share = std::clamp(1.0 - within_variance / match_error_variance, 0.0, 1.0);
+    std::printf("of the match error of keypoints matched in two fixes or more (%.3f px rms), the keyframe keypoint's "
+                "own share (the same in every fix): %.2f\n",
+                std::sqrt(match_error_variance), keyframe_share);
     // Both pixels of a match carry the noise (docs/math.md §3.4: σ on all 4n coordinates), so the
     // error of the current pixel against the keyframe pixel's true transfer has about twice its variance.
     const double measured_pixel_sigma = inlier_error / std::sqrt(2.0);
@@ -212,14 +282,20 @@ int main(int argc, char** argv) {
     document["setup"] = {{"offset_m", audit_options.probe_offset_m}, {"samples", samples},
                          {"pixel_sigma", audit_options.repeat.pose.pixel_sigma_px},
                          {"pixel_sigma_measured", measure_pixel_sigma}, {"inlier_error_px", inlier_error},
+                         {"keyframe_share_of_match_error", keyframe_share},
                          {"jitter_m", jitter}, {"jitter_yaw_rad", jitter_yaw}, {"noise", render.noise_sigma},
                          {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height},
                          {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours},
                          {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours}};
-    std::vector<double> log_predicted[3], log_measured[3];
-    int within = 0, compared = 0;
+    std::vector<double> log_predicted[3], log_measured[3], log_predicted_spread[3], log_measured_spread[3];
+    int within = 0, compared = 0, spread_within = 0, spread_compared = 0;
+    // The bias of each keyframe's fixes (their mean error) over the σ the model gives it (the shared
+    // part plus the spread's part of a mean of n): one draw of a standard normal per keyframe and
+    // axis if the model is right, so judged over the route (mean z², |z| < 2), not one by one.
+    int bias_within_2_sigma = 0, bias_compared = 0;
+    double bias_z_squares = 0.0;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
-                "ratio measured/predicted (along, across, heading)");
+                "ratio measured/predicted (along, across, heading) | the same of the spread from fix to fix");
     for (const KeyframeAudit& a : audit->keyframes) {
       nlohmann::json k = {{"keyframe", a.keyframe}, {"pose", {a.pose.x, a.pose.y, a.pose.yaw}},
                           {"neighbour_inliers", a.neighbour_inliers}, {"pixel_noise_scale", a.pixel_noise_scale},
@@ -238,15 +314,22 @@ int main(int argc, char** argv) {
                     k["problem"].get<std::string>().c_str(), f.localized, samples);
         continue;
       }
-      if (f.localized < 2) {
+      if (f.localized < kMinSpreadSamples) {
         k["problem"] = "localized " + std::to_string(f.localized) + " of " + std::to_string(samples) + ": " + f.failure;
         document["keyframes"].push_back(k);
         std::printf("%4d %8.2f %8.2f | not localized: %s\n", a.keyframe, a.pose.x, a.pose.y, f.failure.c_str());
         continue;
       }
-      const Eigen::Vector3d rms = (f.second_moment / f.localized).cwiseSqrt();
+      const double n = f.localized;
+      const Eigen::Vector3d rms = (f.second_moment / n).cwiseSqrt();
+      const Eigen::Vector3d mean = f.sum / n;
+      const Eigen::Vector3d spread = spreadAboutTrend(f.offsets, f.errors);
       const Eigen::Vector3d sigma = a.predicted_covariance->diagonal().cwiseSqrt();
-      nlohmann::json predicted, measured_rms, ratio;
+      const Eigen::Vector3d fix_to_fix_variance = a.predicted_fix_to_fix_covariance->diagonal();
+      const Eigen::Vector3d spread_sigma = fix_to_fix_variance.cwiseSqrt();
+      const Eigen::Vector3d bias_sigma =
+          (a.predicted_covariance->diagonal() - fix_to_fix_variance + fix_to_fix_variance / n).cwiseMax(0.0).cwiseSqrt();
+      nlohmann::json predicted, measured_rms, ratio, predicted_spread, measured_spread, spread_ratio, bias, bias_z;
       for (int i = 0; i < 3; ++i) {
         predicted[kAxes[i]] = sigma(i);
         measured_rms[kAxes[i]] = rms(i);
@@ -256,28 +339,65 @@ int main(int argc, char** argv) {
         within += r >= 0.5 && r <= 2.0 ? 1 : 0;
         log_predicted[i].push_back(std::log(sigma(i)));
         log_measured[i].push_back(std::log(rms(i)));
+        predicted_spread[kAxes[i]] = spread_sigma(i);
+        measured_spread[kAxes[i]] = spread(i);
+        const double rs = spread(i) / spread_sigma(i);
+        spread_ratio[kAxes[i]] = rs;
+        ++spread_compared;
+        spread_within += rs >= 0.5 && rs <= 2.0 ? 1 : 0;
+        log_predicted_spread[i].push_back(std::log(spread_sigma(i)));
+        log_measured_spread[i].push_back(std::log(spread(i)));
+        const double z = mean(i) / bias_sigma(i);
+        bias[kAxes[i]] = mean(i);
+        bias_z[kAxes[i]] = z;
+        ++bias_compared;
+        bias_within_2_sigma += std::abs(z) < 2.0 ? 1 : 0;
+        bias_z_squares += z * z;
       }
       k["predicted_sigma"] = predicted;
       k["measured_rms"] = measured_rms;
       k["ratio"] = ratio;
+      k["predicted_spread_sigma"] = predicted_spread;
+      k["measured_spread"] = measured_spread;
+      k["spread_ratio"] = spread_ratio;
+      k["bias"] = bias;
+      k["bias_z"] = bias_z;
       document["keyframes"].push_back(k);
-      std::printf("%4d %8.2f %8.2f | %6.4f %6.4f %8.5f | %6.4f %6.4f %8.5f | %.2f %.2f %.2f\n", a.keyframe, a.pose.x,
-                  a.pose.y, sigma(0), sigma(1), sigma(2), rms(0), rms(1), rms(2), rms(0) / sigma(0),
-                  rms(1) / sigma(1), rms(2) / sigma(2));
+      std::printf("%4d %8.2f %8.2f | %6.4f %6.4f %8.5f | %6.4f %6.4f %8.5f | %.2f %.2f %.2f | %.2f %.2f %.2f\n",
+                  a.keyframe, a.pose.x, a.pose.y, sigma(0), sigma(1), sigma(2), rms(0), rms(1), rms(2),
+                  rms(0) / sigma(0), rms(1) / sigma(1), rms(2) / sigma(2), spread(0) / spread_sigma(0),
+                  spread(1) / spread_sigma(1), spread(2) / spread_sigma(2));
     }
     nlohmann::json summary = {{"keyframes", audit->keyframes.size()}, {"ratios_compared", compared},
                               {"ratios_within_factor_2", within},
                               {"fraction_within_factor_2", compared > 0 ? static_cast<double>(within) / compared : NAN}};
     for (int i = 0; i < 3; ++i) summary[std::string("log_correlation_") + kAxes[i]] = correlation(log_predicted[i], log_measured[i]);
+    summary["spread_ratios_compared"] = spread_compared;
+    summary["spread_ratios_within_factor_2"] = spread_within;
+    for (int i = 0; i < 3; ++i) {
+      summary[std::string("spread_log_correlation_") + kAxes[i]] = correlation(log_predicted_spread[i], log_measured_spread[i]);
+    }
+    summary["bias_compared"] = bias_compared;
+    summary["bias_within_2_sigma"] = bias_within_2_sigma;
+    summary["bias_mean_z_squared"] = bias_compared > 0 ? bias_z_squares / bias_compared : NAN;
     document["summary"] = summary;
     std::printf("%d of %d ratios within a factor of 2; correlation of log sigma predicted vs measured: along %.2f, "
                 "across %.2f, heading %.2f\n",
                 within, compared, summary["log_correlation_along_m"].get<double>(),
                 summary["log_correlation_across_m"].get<double>(), summary["log_correlation_heading_rad"].get<double>());
+    std::printf("spread (each keyframe's fixes about their trend) against the predicted fix-to-fix sigma: %d of %d within a "
+                "factor of 2; log correlation along %.2f, across %.2f, heading %.2f\n",
+                spread_within, spread_compared, summary["spread_log_correlation_along_m"].get<double>(),
+                summary["spread_log_correlation_across_m"].get<double>(),
+                summary["spread_log_correlation_heading_rad"].get<double>());
+    std::printf("bias (each keyframe's mean error) over its predicted sigma: %d of %d within 2 sigma, mean z^2 %.2f "
+                "(a right model: 95 %%, 1)\n",
+                bias_within_2_sigma, bias_compared, summary["bias_mean_z_squared"].get<double>());
     const std::filesystem::path out = args.text("out");
     std::filesystem::create_directories(out);
     const std::string json_path = (out / "route_audit_spread.json").string();
     std::ofstream(json_path) << document.dump(1) << "\n";
+    std::fflush(stdout);  // before the plotting child writes to the same stream
     if (args.integer("plots") != 0 && eval::drawPlots(json_path, "evaluate_route_audit") != 0) return 1;
   } catch (const std::exception& e) {
     std::cerr << "evaluate_route_audit: " << e.what() << "\n";

@@ -43,6 +43,9 @@ nlohmann::json toJson(const KeyframeAudit& a) {
     k["predicted_sigma"] = {{"along_m", std::sqrt(c(0, 0))}, {"across_m", std::sqrt(c(1, 1))},
                             {"heading_rad", std::sqrt(c(2, 2))}};
     k["predicted_covariance"] = std::vector<double>(c.data(), c.data() + 9);
+    const Eigen::Matrix3d& spread = *a.predicted_fix_to_fix_covariance;
+    k["predicted_fix_to_fix_sigma"] = {{"along_m", std::sqrt(spread(0, 0))}, {"across_m", std::sqrt(spread(1, 1))},
+                                       {"heading_rad", std::sqrt(spread(2, 2))}};
     k["predicted_matches"] = a.predicted_matches;
     k["expected_match_fraction"] = a.expected_match_fraction;
   } else {
