@@ -174,7 +174,6 @@ int main(int argc, char** argv) {
     // The fixes: every keyframe with a plane, `samples` images around its probe.
     struct Fixes {
       Eigen::Vector3d second_moment = Eigen::Vector3d::Zero();  // of the error (along, across, yaw)
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       // Per localized image: where it was taken relative to the probe (along, across, yaw) and its error.
       std::vector<Eigen::Vector3d> offsets, errors;
       int localized = 0;
@@ -214,7 +213,6 @@ int main(int argc, char** argv) {
         const Pose2D expected = keyframe.pose.inverse().compose(truth);
         const Eigen::Vector3d e(measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw));
         f.second_moment += e.cwiseProduct(e);
-        f.sum += e;
         f.offsets.emplace_back(offset.x, offset.y, offset.yaw);
         f.errors.push_back(e);
         ++f.localized;
@@ -288,11 +286,11 @@ int main(int argc, char** argv) {
                          {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours},
                          {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours}};
     std::vector<double> log_predicted[3], log_measured[3], log_predicted_spread[3], log_measured_spread[3];
-    int within = 0, compared = 0, spread_within = 0, spread_compared = 0;
+    int within = 0, compared = 0, spread_within = 0;  // each over `compared` ratios
     // The bias of each keyframe's fixes (their mean error) over the σ the model gives it (the shared
     // part plus the spread's part of a mean of n): one draw of a standard normal per keyframe and
     // axis if the model is right, so judged over the route (mean z², |z| < 2), not one by one.
-    int bias_within_2_sigma = 0, bias_compared = 0;
+    int bias_within_2_sigma = 0;
     double bias_z_squares = 0.0;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
                 "ratio measured/predicted (along, across, heading) | the same of the spread from fix to fix");
@@ -322,7 +320,8 @@ int main(int argc, char** argv) {
       }
       const double n = f.localized;
       const Eigen::Vector3d rms = (f.second_moment / n).cwiseSqrt();
-      const Eigen::Vector3d mean = f.sum / n;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const Eigen::Vector3d& e : f.errors) mean += e / n;
       const Eigen::Vector3d spread = spreadAboutTrend(f.offsets, f.errors);
       const Eigen::Vector3d sigma = a.predicted_covariance->diagonal().cwiseSqrt();
       const Eigen::Vector3d fix_to_fix_variance = a.predicted_fix_to_fix_covariance->diagonal();
@@ -343,14 +342,12 @@ int main(int argc, char** argv) {
         measured_spread[kAxes[i]] = spread(i);
         const double rs = spread(i) / spread_sigma(i);
         spread_ratio[kAxes[i]] = rs;
-        ++spread_compared;
         spread_within += rs >= 0.5 && rs <= 2.0 ? 1 : 0;
         log_predicted_spread[i].push_back(std::log(spread_sigma(i)));
         log_measured_spread[i].push_back(std::log(spread(i)));
         const double z = mean(i) / bias_sigma(i);
         bias[kAxes[i]] = mean(i);
         bias_z[kAxes[i]] = z;
-        ++bias_compared;
         bias_within_2_sigma += std::abs(z) < 2.0 ? 1 : 0;
         bias_z_squares += z * z;
       }
@@ -372,14 +369,14 @@ int main(int argc, char** argv) {
                               {"ratios_within_factor_2", within},
                               {"fraction_within_factor_2", compared > 0 ? static_cast<double>(within) / compared : NAN}};
     for (int i = 0; i < 3; ++i) summary[std::string("log_correlation_") + kAxes[i]] = correlation(log_predicted[i], log_measured[i]);
-    summary["spread_ratios_compared"] = spread_compared;
+    summary["spread_ratios_compared"] = compared;
     summary["spread_ratios_within_factor_2"] = spread_within;
     for (int i = 0; i < 3; ++i) {
       summary[std::string("spread_log_correlation_") + kAxes[i]] = correlation(log_predicted_spread[i], log_measured_spread[i]);
     }
-    summary["bias_compared"] = bias_compared;
+    summary["bias_compared"] = compared;
     summary["bias_within_2_sigma"] = bias_within_2_sigma;
-    summary["bias_mean_z_squared"] = bias_compared > 0 ? bias_z_squares / bias_compared : NAN;
+    summary["bias_mean_z_squared"] = compared > 0 ? bias_z_squares / compared : NAN;
     document["summary"] = summary;
     std::printf("%d of %d ratios within a factor of 2; correlation of log sigma predicted vs measured: along %.2f, "
                 "across %.2f, heading %.2f\n",
@@ -387,12 +384,12 @@ int main(int argc, char** argv) {
                 summary["log_correlation_across_m"].get<double>(), summary["log_correlation_heading_rad"].get<double>());
     std::printf("spread (each keyframe's fixes about their trend) against the predicted fix-to-fix sigma: %d of %d within a "
                 "factor of 2; log correlation along %.2f, across %.2f, heading %.2f\n",
-                spread_within, spread_compared, summary["spread_log_correlation_along_m"].get<double>(),
+                spread_within, compared, summary["spread_log_correlation_along_m"].get<double>(),
                 summary["spread_log_correlation_across_m"].get<double>(),
                 summary["spread_log_correlation_heading_rad"].get<double>());
     std::printf("bias (each keyframe's mean error) over its predicted sigma: %d of %d within 2 sigma, mean z^2 %.2f "
                 "(a right model: 95 %%, 1)\n",
-                bias_within_2_sigma, bias_compared, summary["bias_mean_z_squared"].get<double>());
+                bias_within_2_sigma, compared, summary["bias_mean_z_squared"].get<double>());
     const std::filesystem::path out = args.text("out");
     std::filesystem::create_directories(out);
     const std::string json_path = (out / "route_audit_spread.json").string();
