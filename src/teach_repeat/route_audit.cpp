@@ -32,13 +32,14 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 // The covariance of a Fast-HD fix from the keyframe's plane features seen by a camera
 // `offset` to the right (exact matches: the covariance is the model's, not a sample's), with the
 // repeat's pixel σ times `pixel_noise_scale` (RouteAuditOptions::pixel_noise_from_neighbours).
-// In base_link of the robot (x forward, y left, yaw); covariance = model + pixel noise, and
-// fix_to_fix the pixel noise's part that differs between fixes at the keyframe (the current
-// image's; the keyframe image's own noise and the model part every fix there shares).
+// In base_link of the robot (x forward, y left, yaw); covariance = model + the keyframe image's
+// pixel noise (reference_noise) + the current image's (current_noise), all with every feature in
+// view matched.
 struct PredictedFix {
   Eigen::Matrix3d covariance;
   Eigen::Matrix3d model;
-  Eigen::Matrix3d fix_to_fix;
+  Eigen::Matrix3d reference_noise;
+  Eigen::Matrix3d current_noise;
   int matches = 0;
 };
 
@@ -72,6 +73,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
     return Eigen::Matrix3d(0.5 * (base + base.transpose()));
   };
   return PredictedFix{toBase(estimate->covariance), toBase(estimate->model_covariance),
+                      toBase(estimate->reference_noise_covariance),
                       toBase(estimate->covariance - estimate->model_covariance - estimate->reference_noise_covariance),
                       static_cast<int>(matches.size())};
 }
@@ -245,7 +247,15 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
           // heading floor (the model part) do not depend on how many match.
           const Eigen::Matrix3d pixel_noise = predicted->covariance - predicted->model;
           a.predicted_covariance = Eigen::Matrix3d(predicted->model + pixel_noise / a.expected_match_fraction);
-          a.predicted_fix_to_fix_covariance = Eigen::Matrix3d(predicted->fix_to_fix / a.expected_match_fraction);
+          // From fix to fix: the current image's noise, and the keyframe image's over the part
+          // of its keypoints not matched in common. Each fix matches a part p of the plane
+          // features, not the same part each time; two fixes whose matched parts are drawn
+          // independently share p of each other's keypoints, so of the keyframe noise's
+          // covariance over the pN matched, p is common to all fixes and 1 − p differs
+          // (docs/math.md §3.4).
+          const double p = a.expected_match_fraction;
+          a.predicted_fix_to_fix_covariance =
+              Eigen::Matrix3d((predicted->current_noise + (1.0 - p) * predicted->reference_noise) / p);
         }
       }
     } else {

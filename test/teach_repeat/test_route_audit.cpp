@@ -186,12 +186,14 @@ TEST_F(RouteAuditTest, ThePredictionCountsTheMatchesANeighbourFinds) {
       << starved->keyframes[0].prediction_problem;
 }
 
-// Of a predicted fix, only the current image's pixel noise differs from one fix to the next at a
-// keyframe (predicted_fix_to_fix_covariance); the keyframe image's own noise and its plane's error
-// are the same in every fix there. So the plane's disagreement with its neighbours leaves the
-// fix-to-fix part as it is, and without it the fix-to-fix part is about half of the pixel noise's
-// (0.3 m beside a keyframe facing its wall, both images' pixels weigh about the same).
-TEST_F(RouteAuditTest, OnlyTheCurrentImagesNoiseDiffersFromFixToFix) {
+// Of a predicted fix, the current image's pixel noise differs from one fix to the next at a
+// keyframe (predicted_fix_to_fix_covariance), and of the keyframe image's own noise the part over
+// the keypoints two fixes do not both match; the plane's error is the same in every fix there. So
+// the plane's disagreement with its neighbours leaves the fix-to-fix part as it is, and without it
+// the shared part, the keyframe image's noise over every plane feature in view, is about half of
+// the pixel noise's with every feature matched (0.3 m beside a keyframe facing its wall, both
+// images' pixels weigh about the same).
+TEST_F(RouteAuditTest, TheFixToFixPartIsTheCurrentImagesNoiseAndTheKeyframesNotMatchedInCommon) {
   Route disagreeing = route();
   ASSERT_TRUE(disagreeing.keyframes[2].plane);
   disagreeing.keyframes[2].plane->distance *= 1.3;
@@ -216,9 +218,58 @@ TEST_F(RouteAuditTest, OnlyTheCurrentImagesNoiseDiffersFromFixToFix) {
             1e-9 * plain.predicted_fix_to_fix_covariance->norm());
   // Without the plane's term the rest is pixel noise and the heading floor (none by default).
   ASSERT_EQ(options.repeat.pose.heading_sigma_rad, 0.0);
+  const double p = plain.expected_match_fraction;
   for (int k = 0; k < 3; ++k) {
-    const double share = (*plain.predicted_fix_to_fix_covariance)(k, k) / (*plain.predicted_covariance)(k, k);
-    EXPECT_GT(share, 0.3) << k;
-    EXPECT_LT(share, 0.7) << k;
+    const double shared = (*plain.predicted_covariance)(k, k) - (*plain.predicted_fix_to_fix_covariance)(k, k);
+    const double all_matched = p * (*plain.predicted_covariance)(k, k);
+    EXPECT_GT(shared / all_matched, 0.3) << k;
+    EXPECT_LT(shared / all_matched, 0.7) << k;
   }
+}
+
+// The keyframe image's noise that every fix shares is its keypoints' over every plane feature in
+// view, whatever part a fix matches: a keyframe its neighbour matches less (keyframe 0, whose only
+// neighbour, keyframe 1, lost every other feature) keeps its shared part and is given a larger
+// fix-to-fix part (docs/math.md §3.4).
+TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.pixel_noise_from_neighbours = false;  // the thinned neighbour's residuals aside
+  options.repeat.plane_feature_tolerance_px = 0.0;  // keyframe 0's features all, whatever its neighbour
+  const auto plain = auditRoute(route(), options);
+  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
+
+  const std::string copy = test_support::makeTemporaryDirectory("htr_thinned_neighbour_route");
+  std::filesystem::copy(route().directory, copy, std::filesystem::copy_options::recursive |
+                                                     std::filesystem::copy_options::overwrite_existing);
+  auto thinned = loadRoute(copy);
+  ASSERT_TRUE(thinned.isOk()) << thinned.status().toString();
+  auto features = loadKeyframeFeatures(*thinned, 1);
+  ASSERT_TRUE(features.isOk()) << features.status().toString();
+  std::vector<cv::KeyPoint> kept;
+  cv::Mat kept_descriptors;
+  for (std::size_t i = 0; i < features->keypoints.size(); i += 2) {
+    kept.push_back(features->keypoints[i]);
+    kept_descriptors.push_back(features->descriptors.row(static_cast<int>(i)));
+  }
+  {
+    cv::FileStorage storage(copy + "/" + thinned->keyframes[1].features_file, cv::FileStorage::WRITE);
+    storage << "feature_type" << toString(features->type);
+    cv::write(storage, "keypoints", kept);
+    storage << "descriptors" << kept_descriptors;
+  }
+  const auto audited = auditRoute(*thinned, options);
+  ASSERT_TRUE(audited.isOk()) << audited.status().toString();
+  const KeyframeAudit& before = plain->keyframes[0];
+  const KeyframeAudit& after = audited->keyframes[0];
+  ASSERT_TRUE(before.predicted_covariance && after.predicted_covariance);
+  ASSERT_EQ(before.predicted_matches, after.predicted_matches);  // keyframe 0's own features
+  EXPECT_LT(after.expected_match_fraction, 0.8 * before.expected_match_fraction);
+  const Eigen::Matrix3d shared_before = *before.predicted_covariance - *before.predicted_fix_to_fix_covariance;
+  const Eigen::Matrix3d shared_after = *after.predicted_covariance - *after.predicted_fix_to_fix_covariance;
+  EXPECT_LT((shared_after - shared_before).norm(), 1e-6 * shared_before.norm());
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_GT((*after.predicted_fix_to_fix_covariance)(k, k), (*before.predicted_fix_to_fix_covariance)(k, k)) << k;
+  }
+  std::filesystem::remove_all(copy);
 }

@@ -59,10 +59,12 @@ struct KeyframeAudit {
   // (x forward, y left, yaw) of base_link for a fix probe_offset_m to the right; absent with the
   // reason in prediction_problem.
   std::optional<Eigen::Matrix3d> predicted_covariance;
-  // The part of predicted_covariance that differs from one fix to the next there (the current
-  // image's pixel noise; the keyframe image's own noise, its plane's error and the heading floor
-  // are the same in every fix against it, a bias of the place): the spread of repeated fixes
-  // about their mean (docs/route_audit.md). Present with predicted_covariance.
+  // The part of predicted_covariance that differs from one fix to the next there: the current
+  // image's pixel noise, and the keyframe image's over the keypoints two fixes do not both match
+  // (1 − expected_match_fraction of it). The rest of the keyframe image's noise, its plane's error
+  // and the heading floor are the same in every fix against it, a bias of the place: the spread
+  // of repeated fixes about their mean (docs/route_audit.md, docs/math.md §3.4). Present with
+  // predicted_covariance.
   std::optional<Eigen::Matrix3d> predicted_fix_to_fix_covariance;
   int predicted_matches = 0;             // the plane features that fix sees
   double expected_match_fraction = 1.0;  // of those, the part it matches (neighbour_inliers / plane_features)

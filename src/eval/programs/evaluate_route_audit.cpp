@@ -19,7 +19,11 @@
 //    mean): one draw of a standard normal per keyframe and axis if the model is right, so judged
 //    over the route (the fraction within 2 σ, the mean of z²).
 // Over the route: the fraction of ratios within a factor of 2 and the correlation of the logs
-// across keyframes. The inliers' errors grouped by keyframe keypoint also give the share of a
+// across keyframes. Where the spread comes from: each fix re-solved from its inliers with their
+// current pixels put at their true positions plus a part of their measured error: the current
+// image's part (the error less its keyframe keypoint's mean over the keyframe's fixes), the same
+// part shuffled among the inliers (its spatial pattern broken, its size kept), and the keyframe
+// keypoints' part alone (their mean): the spread of each against the same prediction. The inliers' errors grouped by keyframe keypoint also give the share of a
 // match's error that is the keyframe keypoint's own (1/2 for iid noise in both images).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
 //                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
@@ -44,6 +48,7 @@
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
+#include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
@@ -113,6 +118,16 @@ Eigen::Vector3d spreadAboutTrend(const std::vector<Eigen::Vector3d>& offsets, co
   return ((observed - fitted).colwise().squaredNorm().transpose() / static_cast<double>(n - 4)).cwiseSqrt();
 }
 
+// One inlier of a fix: the match and where its keyframe pixel truly is in the fix's image.
+struct InlierTruth {
+  PointMatch match;
+  Eigen::Vector2d truly;
+};
+
+// The parts of a fix's match errors it is re-solved with (the header's "where the spread comes from").
+enum ErrorPart { kCurrentPart, kCurrentPartShuffled, kKeyframePart, kErrorParts };
+const char* const kErrorPartNames[kErrorParts] = {"current_part", "current_part_shuffled", "keyframe_part"};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -150,6 +165,7 @@ int main(int argc, char** argv) {
     const Pose2D& m = route->info.camera_mount;
     const CameraMount mount(m.x, m.y, m.yaw);
     cv::RNG rng(static_cast<std::uint64_t>(args.integer("seed")));
+    cv::RNG shuffle_rng(static_cast<std::uint64_t>(args.integer("seed")) + 1);  // apart, so `rng` draws the images it drew
     RouteAuditOptions audit_options;
     audit_options.probe_offset_m = args.number("offset");
     audit_options.aliasing = false;
@@ -176,6 +192,11 @@ int main(int argc, char** argv) {
       Eigen::Vector3d second_moment = Eigen::Vector3d::Zero();  // of the error (along, across, yaw)
       // Per localized image: where it was taken relative to the probe (along, across, yaw) and its error.
       std::vector<Eigen::Vector3d> offsets, errors;
+      std::vector<int> inliers_per_fix;
+      std::vector<Pose2D> truths;                      // where each image was taken
+      std::vector<std::vector<InlierTruth>> inlier_truths;  // per fix, its inliers whose true position is known
+      // Per part, the offsets and errors of the fixes re-solved with it (ErrorPart).
+      std::vector<Eigen::Vector3d> part_offsets[kErrorParts], part_errors[kErrorParts];
       int localized = 0;
       long inliers = 0;
       // The inliers' true error (each match's current pixel against where its keyframe pixel truly
@@ -215,15 +236,56 @@ int main(int argc, char** argv) {
         f.second_moment += e.cwiseProduct(e);
         f.offsets.emplace_back(offset.x, offset.y, offset.yaw);
         f.errors.push_back(e);
+        f.inliers_per_fix.push_back(estimate->inliers);
+        f.truths.push_back(truth);
+        f.inlier_truths.emplace_back();
         ++f.localized;
         f.inliers += estimate->inliers;
         if (camera.hasDistortion()) continue;
         for (const PointMatch& match : estimate->inlier_matches) {
           const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, match.reference);
           if (!truly) continue;
+          f.inlier_truths.back().push_back({match, *truly});
           f.match_error_squares += (match.current - *truly).squaredNorm();
           f.match_coordinates += 2;
           f.errors_by_keypoint[{match.reference.x(), match.reference.y()}].push_back(match.current - *truly);
+        }
+      }
+      // Where the spread comes from: each fix re-solved from its inliers at their true positions
+      // plus a part of their errors. A keyframe keypoint's own error is its errors' mean over the
+      // fixes that matched it (kept where two or more did).
+      std::map<std::pair<double, double>, Eigen::Vector2d> keypoint_error;
+      for (const auto& [pixel, errors] : f.errors_by_keypoint) {
+        if (errors.size() < 2) continue;
+        Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+        for (const Eigen::Vector2d& e : errors) mean += e / static_cast<double>(errors.size());
+        keypoint_error[pixel] = mean;
+      }
+      for (std::size_t fix = 0; fix < f.inlier_truths.size(); ++fix) {
+        PointMatches kept;
+        std::vector<Eigen::Vector2d> truly, current_part, keyframe_part;
+        for (const InlierTruth& inlier : f.inlier_truths[fix]) {
+          const auto own = keypoint_error.find({inlier.match.reference.x(), inlier.match.reference.y()});
+          if (own == keypoint_error.end()) continue;
+          kept.push_back(inlier.match);
+          truly.push_back(inlier.truly);
+          keyframe_part.push_back(own->second);
+          current_part.push_back(inlier.match.current - inlier.truly - own->second);
+        }
+        std::vector<Eigen::Vector2d> shuffled = current_part;
+        for (std::size_t i = shuffled.size(); i > 1; --i) {
+          std::swap(shuffled[i - 1], shuffled[static_cast<std::size_t>(shuffle_rng.uniform(0, static_cast<int>(i)))]);
+        }
+        const std::vector<Eigen::Vector2d>* parts[kErrorParts] = {&current_part, &shuffled, &keyframe_part};
+        for (int part = 0; part < kErrorParts; ++part) {
+          for (std::size_t i = 0; i < kept.size(); ++i) kept[i].current = truly[i] + (*parts[part])[i];
+          const auto solved = estimatePlanarPoseFromInliers(kept, camera, *keyframe.plane, repeat.pose);
+          if (!solved) continue;
+          const Pose2D measured = mount.cameraToBase(solved->pose);
+          const Pose2D expected = keyframe.pose.inverse().compose(f.truths[fix]);
+          f.part_offsets[part].push_back(f.offsets[fix]);
+          f.part_errors[part].emplace_back(measured.x - expected.x, measured.y - expected.y,
+                                           wrapToPi(measured.yaw - expected.yaw));
         }
       }
     }
@@ -291,6 +353,7 @@ int main(int argc, char** argv) {
     // part plus the spread's part of a mean of n): one draw of a standard normal per keyframe and
     // axis if the model is right, so judged over the route (mean z², |z| < 2), not one by one.
     int bias_within_2_sigma = 0;
+    int part_within[kErrorParts] = {0, 0, 0}, part_compared[kErrorParts] = {0, 0, 0};
     double bias_z_squares = 0.0;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
                 "ratio measured/predicted (along, across, heading) | the same of the spread from fix to fix");
@@ -302,6 +365,12 @@ int main(int argc, char** argv) {
       const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];
       k["localized"] = f.localized;
       if (f.localized > 0) k["inliers_mean"] = static_cast<double>(f.inliers) / f.localized;
+      // Every fix: where its image was taken relative to the probe (along, across, yaw), its error, its inliers.
+      for (std::size_t i = 0; i < f.errors.size(); ++i) {
+        k["fixes"].push_back({{"offset", {f.offsets[i].x(), f.offsets[i].y(), f.offsets[i].z()}},
+                              {"error", {f.errors[i].x(), f.errors[i].y(), f.errors[i].z()}},
+                              {"inliers", f.inliers_per_fix[i]}});
+      }
       if (f.match_coordinates > 0) {
         k["match_error_px"] = std::sqrt(f.match_error_squares / static_cast<double>(f.match_coordinates));
       }
@@ -351,6 +420,16 @@ int main(int argc, char** argv) {
         bias_within_2_sigma += std::abs(z) < 2.0 ? 1 : 0;
         bias_z_squares += z * z;
       }
+      for (int part = 0; part < kErrorParts; ++part) {
+        if (f.part_errors[part].size() < static_cast<std::size_t>(kMinSpreadSamples)) continue;
+        const Eigen::Vector3d part_spread = spreadAboutTrend(f.part_offsets[part], f.part_errors[part]);
+        for (int i = 0; i < 3; ++i) {
+          const double r = part_spread(i) / spread_sigma(i);
+          k["spread_ratio_by_error_part"][kErrorPartNames[part]][kAxes[i]] = r;
+          ++part_compared[part];
+          part_within[part] += r >= 0.5 && r <= 2.0 ? 1 : 0;
+        }
+      }
       k["predicted_sigma"] = predicted;
       k["measured_rms"] = measured_rms;
       k["ratio"] = ratio;
@@ -377,6 +456,10 @@ int main(int argc, char** argv) {
     summary["bias_compared"] = compared;
     summary["bias_within_2_sigma"] = bias_within_2_sigma;
     summary["bias_mean_z_squared"] = compared > 0 ? bias_z_squares / compared : NAN;
+    for (int part = 0; part < kErrorParts; ++part) {
+      summary["spread_by_error_part"][kErrorPartNames[part]] = {{"compared", part_compared[part]},
+                                                                {"within_factor_2", part_within[part]}};
+    }
     document["summary"] = summary;
     std::printf("%d of %d ratios within a factor of 2; correlation of log sigma predicted vs measured: along %.2f, "
                 "across %.2f, heading %.2f\n",
@@ -387,6 +470,11 @@ int main(int argc, char** argv) {
                 spread_within, compared, summary["spread_log_correlation_along_m"].get<double>(),
                 summary["spread_log_correlation_across_m"].get<double>(),
                 summary["spread_log_correlation_heading_rad"].get<double>());
+    std::printf("the fixes re-solved from their inliers at their true positions plus the current image's part of their "
+                "errors: %d of %d spreads within a factor of 2; that part shuffled among the inliers: %d of %d; the "
+                "keyframe keypoints' part alone: %d of %d\n",
+                part_within[kCurrentPart], part_compared[kCurrentPart], part_within[kCurrentPartShuffled],
+                part_compared[kCurrentPartShuffled], part_within[kKeyframePart], part_compared[kKeyframePart]);
     std::printf("bias (each keyframe's mean error) over its predicted sigma: %d of %d within 2 sigma, mean z^2 %.2f "
                 "(a right model: 95 %%, 1)\n",
                 bias_within_2_sigma, compared, summary["bias_mean_z_squared"].get<double>());
