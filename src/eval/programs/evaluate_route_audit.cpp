@@ -23,8 +23,9 @@
 // current pixels put at their true positions plus a part of their measured error: the current
 // image's part (the error less its keyframe keypoint's mean over the keyframe's fixes), the same
 // part shuffled among the inliers (its spatial pattern broken, its size kept), and the keyframe
-// keypoints' part alone (their mean): the spread of each against the same prediction. The inliers' errors grouped by keyframe keypoint also give the share of a
-// match's error that is the keyframe keypoint's own (1/2 for iid noise in both images).
+// keypoints' part alone (their mean): the spread of each against the same prediction. The
+// inliers' errors grouped by keyframe keypoint also give the share of a match's error that is the
+// keyframe keypoint's own (1/2 for iid noise in both images).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
 //                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
 // The simulator knows where every inlier truly is: each keyframe pixel's ray meets a wall, which
