@@ -21,6 +21,23 @@ double positionSigma(const KeyframeAudit& a) {
   return std::sqrt(std::max((*a.predicted_covariance)(0, 0), (*a.predicted_covariance)(1, 1)));
 }
 
+// A copy of `route` in a new temporary directory (named after `name`), to change a keyframe's files.
+std::string copyRouteDirectory(const Route& route, const char* name) {
+  const std::string copy = test_support::makeTemporaryDirectory(name);
+  std::filesystem::copy(route.directory, copy, std::filesystem::copy_options::recursive |
+                                                   std::filesystem::copy_options::overwrite_existing);
+  return copy;
+}
+
+// Overwrites keyframe `index`'s stored features in the route at `route.directory`.
+void writeKeyframeFeatures(const Route& route, int index, const ImageFeatures& features) {
+  cv::FileStorage storage(route.directory + "/" + route.keyframes[static_cast<std::size_t>(index)].features_file,
+                          cv::FileStorage::WRITE);
+  storage << "feature_type" << toString(features.type);
+  cv::write(storage, "keypoints", features.keypoints);
+  storage << "descriptors" << features.descriptors;
+}
+
 }  // namespace
 
 TEST_F(RouteAuditTest, AWellTexturedWallGivesEveryKeyframeAPredictedFixAndNoAlias) {
@@ -75,9 +92,7 @@ TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
     EXPECT_LT(a.pixel_noise_scale, 1.6) << a.keyframe;
   }
 
-  const std::string copy = test_support::makeTemporaryDirectory("htr_noisy_keyframe_route");
-  std::filesystem::copy(route().directory, copy, std::filesystem::copy_options::recursive |
-                                                     std::filesystem::copy_options::overwrite_existing);
+  const std::string copy = copyRouteDirectory(route(), "htr_noisy_keyframe_route");
   auto noisy = loadRoute(copy);
   ASSERT_TRUE(noisy.isOk()) << noisy.status().toString();
   auto features = loadKeyframeFeatures(*noisy, 2);
@@ -87,12 +102,7 @@ TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
     keypoint.pt.x += static_cast<float>(rng.gaussian(1.5));
     keypoint.pt.y += static_cast<float>(rng.gaussian(1.5));
   }
-  {
-    cv::FileStorage storage(copy + "/" + noisy->keyframes[2].features_file, cv::FileStorage::WRITE);
-    storage << "feature_type" << toString(features->type);
-    cv::write(storage, "keypoints", features->keypoints);
-    storage << "descriptors" << features->descriptors;
-  }
+  writeKeyframeFeatures(*noisy, 2, *features);
   const auto audited = auditRoute(*noisy, options);
   ASSERT_TRUE(audited.isOk()) << audited.status().toString();
   const auto& k = audited->keyframes;
@@ -239,25 +249,18 @@ TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
   const auto plain = auditRoute(route(), options);
   ASSERT_TRUE(plain.isOk()) << plain.status().toString();
 
-  const std::string copy = test_support::makeTemporaryDirectory("htr_thinned_neighbour_route");
-  std::filesystem::copy(route().directory, copy, std::filesystem::copy_options::recursive |
-                                                     std::filesystem::copy_options::overwrite_existing);
+  const std::string copy = copyRouteDirectory(route(), "htr_thinned_neighbour_route");
   auto thinned = loadRoute(copy);
   ASSERT_TRUE(thinned.isOk()) << thinned.status().toString();
   auto features = loadKeyframeFeatures(*thinned, 1);
   ASSERT_TRUE(features.isOk()) << features.status().toString();
-  std::vector<cv::KeyPoint> kept;
-  cv::Mat kept_descriptors;
+  ImageFeatures every_other;
+  every_other.type = features->type;
   for (std::size_t i = 0; i < features->keypoints.size(); i += 2) {
-    kept.push_back(features->keypoints[i]);
-    kept_descriptors.push_back(features->descriptors.row(static_cast<int>(i)));
+    every_other.keypoints.push_back(features->keypoints[i]);
+    every_other.descriptors.push_back(features->descriptors.row(static_cast<int>(i)));
   }
-  {
-    cv::FileStorage storage(copy + "/" + thinned->keyframes[1].features_file, cv::FileStorage::WRITE);
-    storage << "feature_type" << toString(features->type);
-    cv::write(storage, "keypoints", kept);
-    storage << "descriptors" << kept_descriptors;
-  }
+  writeKeyframeFeatures(*thinned, 1, every_other);
   const auto audited = auditRoute(*thinned, options);
   ASSERT_TRUE(audited.isOk()) << audited.status().toString();
   const KeyframeAudit& before = plain->keyframes[0];
