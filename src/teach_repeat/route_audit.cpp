@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -34,13 +36,15 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 // repeat's pixel σ times `pixel_noise_scale` (RouteAuditOptions::pixel_noise_from_neighbours).
 // In base_link of the robot (x forward, y left, yaw); covariance = model + the keyframe image's
 // pixel noise (reference_noise) + the current image's (current_noise), all with every feature in
-// view matched.
+// view matched. The pixel σ is also scaled by how much the probe's view stretches the features
+// (stretch_noise_scale, RouteAuditOptions::stretch_noise_gain).
 struct PredictedFix {
   Eigen::Matrix3d covariance;
   Eigen::Matrix3d model;
   Eigen::Matrix3d reference_noise;
   Eigen::Matrix3d current_noise;
   int matches = 0;
+  double stretch_noise_scale = 1.0;
 };
 
 Expected<PredictedFix> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
@@ -49,6 +53,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
   const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
   PointMatches matches;
+  std::vector<Eigen::Vector2d> seen;  // the keyframe pixels of `matches`
   for (const cv::KeyPoint& keypoint : reference.features.keypoints) {
     const cv::Point2d undistorted = camera.undistortPixel(cv::Point2d(keypoint.pt.x, keypoint.pt.y));
     const Eigen::Vector3d moved = H * Eigen::Vector3d(undistorted.x, undistorted.y, 1.0);
@@ -56,9 +61,11 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
     const Eigen::Vector2d current = moved.hnormalized();
     if (!camera.isInside(cv::Point2d(current.x(), current.y()))) continue;
     matches.push_back(PointMatch{Eigen::Vector2d(undistorted.x, undistorted.y), current});
+    seen.push_back(matches.back().reference);
   }
+  const double stretch = matchStretchNoiseScale(H, seen, options.stretch_noise_gain);
   PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
-  pose_options.pixel_sigma_px *= pixel_noise_scale;
+  pose_options.pixel_sigma_px *= pixel_noise_scale * stretch;
   // The plane's disagreement with its neighbours enters the prediction only where it enters the
   // repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6, docs/route_audit.md).
   if (options.repeat.plane_sigma_from_neighbours) {
@@ -75,7 +82,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   return PredictedFix{toBase(estimate->covariance), toBase(estimate->model_covariance),
                       toBase(estimate->reference_noise_covariance),
                       toBase(estimate->covariance - estimate->model_covariance - estimate->reference_noise_covariance),
-                      static_cast<int>(matches.size())};
+                      static_cast<int>(matches.size()), stretch};
 }
 
 // Keyframe `current` localized against keyframe `reference` as the repeat would: the robust
@@ -83,12 +90,20 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
 struct Relocalization {
   int inliers = 0;
   double rms_transfer_error_px = 0.0;  // of the inliers against their homography
+  double stretch_noise_scale = 1.0;    // matchStretchNoiseScale of the inliers under their homography
   std::optional<Pose2D> relative;  // current's base in reference's base frame
 };
 
 Relocalization relocalize(const KeyframeReference& reference, const ImageFeatures& current, const PinholeCamera& camera,
-                          const CameraMount& mount, const RepeatOptions& repeat) {
+                          const CameraMount& mount, const RepeatOptions& repeat, double stretch_noise_gain) {
   Relocalization result;
+  const auto stretchOf = [stretch_noise_gain](const PointMatches& points, const Eigen::Matrix3d& H,
+                                              const std::vector<int>& inliers) {
+    std::vector<Eigen::Vector2d> pixels;
+    pixels.reserve(inliers.size());
+    for (const int i : inliers) pixels.push_back(points[static_cast<std::size_t>(i)].reference);
+    return matchStretchNoiseScale(H, pixels, stretch_noise_gain);
+  };
   const auto matches = matchFeatures(reference.features, current, repeat.matching);
   if (!matches || matches->size() < 4) return result;
   const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
@@ -97,6 +112,7 @@ Relocalization relocalize(const KeyframeReference& reference, const ImageFeature
     if (pose) {
       result.inliers = static_cast<int>(pose->inliers.size());
       result.rms_transfer_error_px = pose->rms_transfer_error_px;
+      result.stretch_noise_scale = stretchOf(points, pose->H, pose->inliers);
       result.relative = mount.cameraToBase(pose->pose);
     }
     return result;
@@ -105,16 +121,39 @@ Relocalization relocalize(const KeyframeReference& reference, const ImageFeature
   if (homography) {
     result.inliers = static_cast<int>(homography->inliers.size());
     result.rms_transfer_error_px = homography->rms_transfer_error_px;
+    result.stretch_noise_scale = stretchOf(points, homography->H, homography->inliers);
   }
   return result;
 }
 
 }  // namespace
 
+double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain) {
+  if (gain == 0.0) return 1.0;
+  double squares = 0.0;
+  int counted = 0;
+  for (const Eigen::Vector2d& pixel : pixels) {
+    const Eigen::Vector3d mapped = H * pixel.homogeneous();
+    if (!(std::abs(mapped.z()) > 0.0)) continue;
+    // d(H x)ₕ/dx = (H₁₂ − (H x)ₕ h₃ᵀ) / w, H₁₂ the top-left 2x2 block, h₃ᵀ the first two of H's last row.
+    const Eigen::Matrix2d local =
+        (H.topLeftCorner<2, 2>() - mapped.hnormalized() * H.block<1, 2>(2, 0)) / mapped.z();
+    const Eigen::Vector2d singular = Eigen::JacobiSVD<Eigen::Matrix2d>(local).singularValues();
+    if (!(singular(1) > 0.0) || !std::isfinite(singular(0))) continue;
+    const double noise = 1.0 + gain * (singular(0) / singular(1) - 1.0);
+    squares += noise * noise;
+    ++counted;
+  }
+  return counted > 0 ? std::sqrt(squares / counted) : 1.0;
+}
+
 void RouteAuditOptions::validate() const {
   repeat.validate();
   if (!(probe_offset_m > 0.0) || !std::isfinite(probe_offset_m)) {
     throw std::invalid_argument("route audit: probe_offset_m must be finite and > 0");
+  }
+  if (!(stretch_noise_gain >= 0.0 && stretch_noise_gain <= 10.0)) {
+    throw std::invalid_argument("route audit: stretch_noise_gain must be in [0, 10]");
   }
   if (same_place_keyframes < 1) throw std::invalid_argument("route audit: same_place_keyframes must be >= 1");
   if (min_plane_features < 0 || min_lines < 0) {
@@ -178,13 +217,15 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   // How much of each keyframe the repeat matches from a nearby view: the better of its two
   // neighbours' inliers against it (where the teach run turned in place one neighbour faces
   // another wall; also without the aliasing search). And how noisy its matches are: the inliers'
-  // residual against their homography, over both neighbours (docs/route_audit.md).
+  // residual against their homography, over both neighbours, less what the neighbour's view
+  // stretching them adds (stretch_noise_gain; docs/route_audit.md).
   struct Residual {
-    double squares = 0.0;  // Σ inliers · rms²
+    double squares = 0.0;  // Σ inliers · (rms / stretch)²
     long inliers = 0;
     void add(const Relocalization& found) {
       if (found.inliers <= 0 || !std::isfinite(found.rms_transfer_error_px)) return;
-      squares += found.rms_transfer_error_px * found.rms_transfer_error_px * found.inliers;
+      const double unstretched = found.rms_transfer_error_px / found.stretch_noise_scale;
+      squares += unstretched * unstretched * found.inliers;
       inliers += found.inliers;
     }
     double rms() const { return inliers > 0 ? std::sqrt(squares / static_cast<double>(inliers)) : 0.0; }
@@ -197,7 +238,8 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     for (const int neighbour : {k - 1, k + 1}) {
       if (neighbour < 0 || neighbour >= n) continue;
       const Relocalization found =
-          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat);
+          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat,
+                     options.stretch_noise_gain);
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
       residuals[i].add(found);
       route_residual.add(found);
@@ -230,6 +272,7 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
         a.prediction_problem = predicted.status().toString();
       } else {
         a.predicted_matches = predicted->matches;
+        a.stretch_noise_scale = predicted->stretch_noise_scale;
         // The fix sees predicted_matches plane features but matches only part of them (the
         // descriptors of a view from elsewhere): as large a part as the neighbour matched. The
         // covariance of n matches goes as 1/n (docs/route_audit.md: the simulator's room, fixes
@@ -299,7 +342,8 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
       const ImageFeatures& mine = references[static_cast<std::size_t>(k)].features;
       for (int j = 0; j < n; ++j) {
         if (std::abs(j - k) <= options.same_place_keyframes) continue;
-        const Relocalization other = relocalize(references[static_cast<std::size_t>(j)], mine, camera, mount, options.repeat);
+        const Relocalization other = relocalize(references[static_cast<std::size_t>(j)], mine, camera, mount, options.repeat,
+                                                options.stretch_noise_gain);
         if (other.inliers < options.repeat.min_inliers || other.inliers <= a.alias_inliers) continue;
         if (other.relative) {
           const Pose2D taught = route.keyframes[static_cast<std::size_t>(j)].pose.inverse().compose(

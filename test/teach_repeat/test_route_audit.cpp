@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <opencv2/core.hpp>
 
 #include <cmath>
@@ -275,4 +276,65 @@ TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
     EXPECT_GT((*after.predicted_fix_to_fix_covariance)(k, k), (*before.predicted_fix_to_fix_covariance)(k, k)) << k;
   }
   std::filesystem::remove_all(copy);
+}
+
+// A view that maps the keyframe by a similarity stretches nothing (1); one that stretches a
+// keypoint's patch 1.2 times across gives 1 + gain · 0.2 there; the scale is the RMS over the
+// pixels, and a perspective homography stretches its pixels differently.
+TEST(MatchStretchNoiseScale, GrowsWithTheStretchOfTheLocalMap) {
+  const std::vector<Eigen::Vector2d> pixels = {{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}};
+  Eigen::Matrix3d similarity;
+  similarity << 0.9 * std::cos(0.3), -0.9 * std::sin(0.3), 12.0, 0.9 * std::sin(0.3), 0.9 * std::cos(0.3), -7.0, 0.0, 0.0, 1.0;
+  EXPECT_NEAR(matchStretchNoiseScale(similarity, pixels, 2.0), 1.0, 1e-12);
+  const Eigen::Matrix3d stretched = Eigen::Vector3d(1.2, 1.0, 1.0).asDiagonal();
+  EXPECT_NEAR(matchStretchNoiseScale(stretched, pixels, 2.0), 1.4, 1e-12);
+  EXPECT_NEAR(matchStretchNoiseScale(stretched, pixels, 0.5), 1.1, 1e-12);
+  EXPECT_EQ(matchStretchNoiseScale(stretched, pixels, 0.0), 1.0);
+  EXPECT_EQ(matchStretchNoiseScale(stretched, {}, 2.0), 1.0);
+  // A wall turned away: the local map at each pixel is the homography's Jacobian there.
+  Eigen::Matrix3d perspective;
+  perspective << 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.001, 0.0, 1.0;
+  double squares = 0.0;
+  for (const Eigen::Vector2d& x : pixels) {
+    const double w = 1.0 + 0.001 * x.x();
+    // d/dx of (x, y) / w: [[1/w², 0], [-0.001 y / w², 1/w]]; its singular values' ratio, numerically.
+    Eigen::Matrix2d local;
+    local << 1.0 / (w * w), 0.0, -0.001 * x.y() / (w * w), 1.0 / w;
+    const Eigen::Vector2d s = Eigen::JacobiSVD<Eigen::Matrix2d>(local).singularValues();
+    const double noise = 1.0 + 2.0 * (s(0) / s(1) - 1.0);
+    squares += noise * noise / 3.0;
+  }
+  EXPECT_NEAR(matchStretchNoiseScale(perspective, pixels, 2.0), std::sqrt(squares), 1e-9);
+  EXPECT_GT(matchStretchNoiseScale(perspective, pixels, 2.0), 1.5);
+}
+
+// The stretch gain scales the pixel noise's part of the prediction by the square of the probe's
+// stretch scale (beside a keyframe facing its wall, a little above 1); 0 leaves every scale at 1;
+// a gain outside [0, 10] is refused naming it.
+TEST_F(RouteAuditTest, TheProbesStretchScalesThePixelNoise) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.pixel_noise_from_neighbours = false;  // the neighbours' own stretch aside
+  options.stretch_noise_gain = 0.0;
+  const auto plain = auditRoute(route(), options);
+  options.stretch_noise_gain = 2.0;
+  const auto stretched = auditRoute(route(), options);
+  ASSERT_TRUE(plain.isOk() && stretched.isOk());
+  for (std::size_t k = 0; k < plain->keyframes.size(); ++k) {
+    const KeyframeAudit& a = plain->keyframes[k];
+    const KeyframeAudit& b = stretched->keyframes[k];
+    EXPECT_EQ(a.stretch_noise_scale, 1.0);
+    EXPECT_GT(b.stretch_noise_scale, 1.0) << k;
+    EXPECT_LT(b.stretch_noise_scale, 1.5) << k;
+    ASSERT_TRUE(a.predicted_covariance && b.predicted_covariance);
+    // No model terms by default: the whole prediction is pixel noise, and it scales as σ².
+    EXPECT_NEAR((*b.predicted_covariance)(0, 0) / (*a.predicted_covariance)(0, 0),
+                b.stretch_noise_scale * b.stretch_noise_scale, 1e-3) << k;
+  }
+  for (const double bad : {-0.1, 10.5, std::nan("")}) {
+    options.stretch_noise_gain = bad;
+    const auto refused = auditRoute(route(), options);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_NE(refused.status().message().find("stretch_noise_gain"), std::string::npos);
+  }
 }

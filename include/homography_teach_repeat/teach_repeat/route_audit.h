@@ -43,6 +43,11 @@ struct RouteAuditOptions {
   // scales repeat.pose.pixel_sigma_px in its prediction. A wall whose texture matches less
   // sharply gives noisier fixes (docs/route_audit.md). false: the configured σ everywhere.
   bool pixel_noise_from_neighbours = true;
+  // How much noisier a match is where the other view sees its keypoint stretched (matchStretchNoiseScale):
+  // the gain κ of 1 + κ (a − 1), a the local stretch [0-10; 0: not modelled]. It scales the
+  // prediction's pixel σ by the probe's stretch, and takes the neighbours' own stretch out of
+  // their residual (docs/route_audit.md: 2, measured in the simulator's room).
+  double stretch_noise_gain = 2.0;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -72,7 +77,11 @@ struct KeyframeAudit {
   int lines = 0;
   int line_landmarks = 0;
   int neighbour_inliers = -1;  // the better of the previous and the next keyframe against it; -1: a route of one keyframe
-  double pixel_noise_scale = 1.0;  // the prediction's pixel σ over the configured one (pixel_noise_from_neighbours)
+  double pixel_noise_scale = 1.0;  // the keyframe's pixel σ over the configured one (pixel_noise_from_neighbours)
+  // The probe's pixel σ over the keyframe's: its view stretches the keyframe's plane features
+  // (matchStretchNoiseScale with stretch_noise_gain; 1: not at all, or not modelled). The
+  // prediction's pixel σ is the configured one × pixel_noise_scale × stretch_noise_scale.
+  double stretch_noise_scale = 1.0;
   int alias_keyframe = -1;     // the other keyframe that matched best with a pose that is not the taught one
   int alias_inliers = 0;
   std::vector<std::string> fast_hd_weaknesses;
@@ -85,6 +94,14 @@ struct RouteAudit {
   int weak_for_mu = 0;
   std::vector<std::string> notes;  // route-wide (e.g. no planes at all)
 };
+
+// How much larger than between views that differ by a similarity the error of matches is, where a
+// homography H (reference pixel to current pixel) maps `pixels` of the reference: a SIFT-like
+// keypoint is invariant to a similarity of its patch, not to a stretch, and is located worse the
+// more the other view stretches it. At each pixel the local map is H's 2x2 Jacobian there, its
+// stretch a = s1/s2 (its singular values; 1 for a similarity), the noise 1 + gain (a − 1); the
+// root mean square over the pixels (the estimator takes one σ). 1 for no pixel or gain 0.
+double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain);
 
 // kInvalidInput for invalid options, a route without keyframes, or a corrupt keyframe file.
 Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options);

@@ -135,12 +135,13 @@ int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
-                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"plots", "1"}},
+                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"plots", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S]\n"
                       "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's)\n"
-                      "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches) [--plots 0|1]");
+                      "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
+                      "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
@@ -172,6 +173,7 @@ int main(int argc, char** argv) {
     audit_options.aliasing = false;
     audit_options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
     audit_options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
+    audit_options.stretch_noise_gain = args.number("stretch-noise-gain");
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
     if (measure_pixel_sigma && camera.hasDistortion()) {
       throw std::runtime_error("--pixel-sigma measure needs a camera without distortion (the true transfer is the pinhole's)");
@@ -347,7 +349,8 @@ int main(int argc, char** argv) {
                          {"jitter_m", jitter}, {"jitter_yaw_rad", jitter_yaw}, {"noise", render.noise_sigma},
                          {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height},
                          {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours},
-                         {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours}};
+                         {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours},
+                         {"stretch_noise_gain", audit_options.stretch_noise_gain}};
     std::vector<double> log_predicted[3], log_measured[3], log_predicted_spread[3], log_measured_spread[3];
     int within = 0, compared = 0, spread_within = 0;  // each over `compared` ratios
     // The bias of each keyframe's fixes (their mean error) over the σ the model gives it (the shared
@@ -361,6 +364,7 @@ int main(int argc, char** argv) {
     for (const KeyframeAudit& a : audit->keyframes) {
       nlohmann::json k = {{"keyframe", a.keyframe}, {"pose", {a.pose.x, a.pose.y, a.pose.yaw}},
                           {"neighbour_inliers", a.neighbour_inliers}, {"pixel_noise_scale", a.pixel_noise_scale},
+                          {"stretch_noise_scale", a.stretch_noise_scale},
                           {"predicted_matches", a.predicted_matches},
                           {"expected_match_fraction", a.expected_match_fraction}};
       const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];

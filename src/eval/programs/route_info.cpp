@@ -29,6 +29,7 @@ nlohmann::json toJson(const KeyframeAudit& a) {
                       {"lines", a.lines},
                       {"line_landmarks", a.line_landmarks},
                       {"neighbour_inliers", a.neighbour_inliers}, {"pixel_noise_scale", a.pixel_noise_scale},
+                          {"stretch_noise_scale", a.stretch_noise_scale},
                       {"alias_keyframe", a.alias_keyframe},
                       {"alias_inliers", a.alias_inliers},
                       {"fast_hd_weaknesses", a.fast_hd_weaknesses},
@@ -62,7 +63,7 @@ int main(int argc, char** argv) {
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", "0.35"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
-       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
       "  [--heading-sigma RAD] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance terms, as repeat_node's\n"
       "  parameters)\n"
       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
+      "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off)\n"
       "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
       "  [--min-lines N] (what makes a keyframe weak)\n"
       "  [--plots 0|1]");
@@ -98,6 +100,7 @@ int main(int argc, char** argv) {
   options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
+  options.stretch_noise_gain = args.number("stretch-noise-gain");
   options.min_plane_features = args.integer("min-plane-features");
   options.max_position_sigma_m = args.number("max-position-sigma");
   options.max_heading_sigma_rad = args.number("max-heading-sigma");
