@@ -506,6 +506,12 @@ Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t key
   return loadFeaturesFile(route, route.directory + "/" + route.keyframes[keyframe].features_file);
 }
 
+Status writeKeyframeFeatures(const Route& route, std::size_t keyframe, const ImageFeatures& features) {
+  const Status valid = checkKeyframe(route, keyframe);
+  if (!valid.isOk()) return valid;
+  return writeFeaturesFile(route.directory + "/" + route.keyframes[keyframe].features_file, features);
+}
+
 Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience) {
   const Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;

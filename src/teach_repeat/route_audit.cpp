@@ -90,19 +90,18 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
 struct Relocalization {
   int inliers = 0;
   double rms_transfer_error_px = 0.0;  // of the inliers against their homography
-  double stretch_noise_scale = 1.0;    // matchStretchNoiseScale of the inliers under their homography
+  Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // the inliers' homography, reference to current
+  std::vector<Eigen::Vector2d> inlier_pixels;      // the inliers' reference pixels
   std::optional<Pose2D> relative;  // current's base in reference's base frame
 };
 
 Relocalization relocalize(const KeyframeReference& reference, const ImageFeatures& current, const PinholeCamera& camera,
-                          const CameraMount& mount, const RepeatOptions& repeat, double stretch_noise_gain) {
+                          const CameraMount& mount, const RepeatOptions& repeat) {
   Relocalization result;
-  const auto stretchOf = [stretch_noise_gain](const PointMatches& points, const Eigen::Matrix3d& H,
-                                              const std::vector<int>& inliers) {
-    std::vector<Eigen::Vector2d> pixels;
-    pixels.reserve(inliers.size());
-    for (const int i : inliers) pixels.push_back(points[static_cast<std::size_t>(i)].reference);
-    return matchStretchNoiseScale(H, pixels, stretch_noise_gain);
+  const auto keepInliers = [&result](const PointMatches& points, const Eigen::Matrix3d& H, const std::vector<int>& inliers) {
+    result.inliers = static_cast<int>(inliers.size());
+    result.H = H;
+    for (const int i : inliers) result.inlier_pixels.push_back(points[static_cast<std::size_t>(i)].reference);
   };
   const auto matches = matchFeatures(reference.features, current, repeat.matching);
   if (!matches || matches->size() < 4) return result;
@@ -110,18 +109,16 @@ Relocalization relocalize(const KeyframeReference& reference, const ImageFeature
   if (reference.plane) {
     const auto pose = estimatePlanarPose(points, camera, *reference.plane, repeat.pose);
     if (pose) {
-      result.inliers = static_cast<int>(pose->inliers.size());
+      keepInliers(points, pose->H, pose->inliers);
       result.rms_transfer_error_px = pose->rms_transfer_error_px;
-      result.stretch_noise_scale = stretchOf(points, pose->H, pose->inliers);
       result.relative = mount.cameraToBase(pose->pose);
     }
     return result;
   }
   const auto homography = estimateHomographyRobust(points, repeat.pose.robust);
   if (homography) {
-    result.inliers = static_cast<int>(homography->inliers.size());
+    keepInliers(points, homography->H, homography->inliers);
     result.rms_transfer_error_px = homography->rms_transfer_error_px;
-    result.stretch_noise_scale = stretchOf(points, homography->H, homography->inliers);
   }
   return result;
 }
@@ -222,9 +219,9 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   struct Residual {
     double squares = 0.0;  // Σ inliers · (rms / stretch)²
     long inliers = 0;
-    void add(const Relocalization& found) {
+    void add(const Relocalization& found, double stretch_noise_scale) {
       if (found.inliers <= 0 || !std::isfinite(found.rms_transfer_error_px)) return;
-      const double unstretched = found.rms_transfer_error_px / found.stretch_noise_scale;
+      const double unstretched = found.rms_transfer_error_px / stretch_noise_scale;
       squares += unstretched * unstretched * found.inliers;
       inliers += found.inliers;
     }
@@ -238,11 +235,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     for (const int neighbour : {k - 1, k + 1}) {
       if (neighbour < 0 || neighbour >= n) continue;
       const Relocalization found =
-          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat,
-                     options.stretch_noise_gain);
+          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat);
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
-      residuals[i].add(found);
-      route_residual.add(found);
+      const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
+      residuals[i].add(found, stretch);
+      route_residual.add(found, stretch);
     }
   }
 
@@ -342,8 +339,7 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
       const ImageFeatures& mine = references[static_cast<std::size_t>(k)].features;
       for (int j = 0; j < n; ++j) {
         if (std::abs(j - k) <= options.same_place_keyframes) continue;
-        const Relocalization other = relocalize(references[static_cast<std::size_t>(j)], mine, camera, mount, options.repeat,
-                                                options.stretch_noise_gain);
+        const Relocalization other = relocalize(references[static_cast<std::size_t>(j)], mine, camera, mount, options.repeat);
         if (other.inliers < options.repeat.min_inliers || other.inliers <= a.alias_inliers) continue;
         if (other.relative) {
           const Pose2D taught = route.keyframes[static_cast<std::size_t>(j)].pose.inverse().compose(

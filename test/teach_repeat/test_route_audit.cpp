@@ -30,15 +30,6 @@ std::string copyRouteDirectory(const Route& route, const char* name) {
   return copy;
 }
 
-// Overwrites keyframe `index`'s stored features in the route at `route.directory`.
-void writeKeyframeFeatures(const Route& route, int index, const ImageFeatures& features) {
-  cv::FileStorage storage(route.directory + "/" + route.keyframes[static_cast<std::size_t>(index)].features_file,
-                          cv::FileStorage::WRITE);
-  storage << "feature_type" << toString(features.type);
-  cv::write(storage, "keypoints", features.keypoints);
-  storage << "descriptors" << features.descriptors;
-}
-
 }  // namespace
 
 TEST_F(RouteAuditTest, AWellTexturedWallGivesEveryKeyframeAPredictedFixAndNoAlias) {
@@ -103,7 +94,7 @@ TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
     keypoint.pt.x += static_cast<float>(rng.gaussian(1.5));
     keypoint.pt.y += static_cast<float>(rng.gaussian(1.5));
   }
-  writeKeyframeFeatures(*noisy, 2, *features);
+  ASSERT_TRUE(writeKeyframeFeatures(*noisy, 2, *features).isOk());
   const auto audited = auditRoute(*noisy, options);
   ASSERT_TRUE(audited.isOk()) << audited.status().toString();
   const auto& k = audited->keyframes;
@@ -261,7 +252,7 @@ TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
     every_other.keypoints.push_back(features->keypoints[i]);
     every_other.descriptors.push_back(features->descriptors.row(static_cast<int>(i)));
   }
-  writeKeyframeFeatures(*thinned, 1, every_other);
+  ASSERT_TRUE(writeKeyframeFeatures(*thinned, 1, every_other).isOk());
   const auto audited = auditRoute(*thinned, options);
   ASSERT_TRUE(audited.isOk()) << audited.status().toString();
   const KeyframeAudit& before = plain->keyframes[0];

@@ -141,5 +141,8 @@ Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe);
 Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe);
 Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe);
 Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience);
+// Replaces a keyframe's stored features (atomically); kInvalidInput for a keyframe the route does
+// not have or a file that cannot be written.
+Status writeKeyframeFeatures(const Route& route, std::size_t keyframe, const ImageFeatures& features);
 
 }  // namespace homography_teach_repeat

@@ -44,6 +44,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <vector>
 
@@ -117,6 +118,11 @@ Eigen::Vector3d spreadAboutTrend(const std::vector<Eigen::Vector3d>& offsets, co
   }
   const Eigen::MatrixXd fitted = design * design.colPivHouseholderQr().solve(observed);
   return ((observed - fitted).colwise().squaredNorm().transpose() / static_cast<double>(n - 4)).cwiseSqrt();
+}
+
+// A pose's error (along, across, yaw) against the true one, both in the keyframe's base frame.
+Eigen::Vector3d poseError(const Pose2D& measured, const Pose2D& expected) {
+  return {measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw)};
 }
 
 // One inlier of a fix: the match and where its keyframe pixel truly is in the fix's image.
@@ -196,12 +202,11 @@ int main(int argc, char** argv) {
       // Per localized image: where it was taken relative to the probe (along, across, yaw) and its error.
       std::vector<Eigen::Vector3d> offsets, errors;
       std::vector<int> inliers_per_fix;
-      std::vector<Pose2D> truths;                      // where each image was taken
+      std::vector<Pose2D> truths;  // where each image was taken, in the keyframe's base frame
       std::vector<std::vector<InlierTruth>> inlier_truths;  // per fix, its inliers whose true position is known
       // Per part, the offsets and errors of the fixes re-solved with it (ErrorPart).
       std::vector<Eigen::Vector3d> part_offsets[kErrorParts], part_errors[kErrorParts];
       int localized = 0;
-      long inliers = 0;
       // The inliers' true error (each match's current pixel against where its keyframe pixel truly
       // is): the pixel noise the fixes actually had.
       double match_error_squares = 0.0;
@@ -235,23 +240,26 @@ int main(int argc, char** argv) {
         // The error in the keyframe's base frame, as the prediction's covariance.
         const Pose2D measured = keyframe.pose.inverse().compose(estimate->base_pose);
         const Pose2D expected = keyframe.pose.inverse().compose(truth);
-        const Eigen::Vector3d e(measured.x - expected.x, measured.y - expected.y, wrapToPi(measured.yaw - expected.yaw));
+        const Eigen::Vector3d e = poseError(measured, expected);
         f.second_moment += e.cwiseProduct(e);
         f.offsets.emplace_back(offset.x, offset.y, offset.yaw);
         f.errors.push_back(e);
         f.inliers_per_fix.push_back(estimate->inliers);
-        f.truths.push_back(truth);
+        f.truths.push_back(expected);
         f.inlier_truths.emplace_back();
         ++f.localized;
-        f.inliers += estimate->inliers;
         if (camera.hasDistortion()) continue;
         for (const PointMatch& match : estimate->inlier_matches) {
           const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, match.reference);
-          if (!truly) continue;
-          f.inlier_truths.back().push_back({match, *truly});
-          f.match_error_squares += (match.current - *truly).squaredNorm();
+          if (truly) f.inlier_truths.back().push_back({match, *truly});
+        }
+      }
+      for (const std::vector<InlierTruth>& fix : f.inlier_truths) {
+        for (const InlierTruth& inlier : fix) {
+          const Eigen::Vector2d error = inlier.match.current - inlier.truly;
+          f.match_error_squares += error.squaredNorm();
           f.match_coordinates += 2;
-          f.errors_by_keypoint[{match.reference.x(), match.reference.y()}].push_back(match.current - *truly);
+          f.errors_by_keypoint[{inlier.match.reference.x(), inlier.match.reference.y()}].push_back(error);
         }
       }
       // Where the spread comes from: each fix re-solved from its inliers at their true positions
@@ -284,11 +292,8 @@ int main(int argc, char** argv) {
           for (std::size_t i = 0; i < kept.size(); ++i) kept[i].current = truly[i] + (*parts[part])[i];
           const auto solved = estimatePlanarPoseFromInliers(kept, camera, *keyframe.plane, repeat.pose);
           if (!solved) continue;
-          const Pose2D measured = mount.cameraToBase(solved->pose);
-          const Pose2D expected = keyframe.pose.inverse().compose(f.truths[fix]);
           f.part_offsets[part].push_back(f.offsets[fix]);
-          f.part_errors[part].emplace_back(measured.x - expected.x, measured.y - expected.y,
-                                           wrapToPi(measured.yaw - expected.yaw));
+          f.part_errors[part].push_back(poseError(mount.cameraToBase(solved->pose), f.truths[fix]));
         }
       }
     }
@@ -369,7 +374,10 @@ int main(int argc, char** argv) {
                           {"expected_match_fraction", a.expected_match_fraction}};
       const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];
       k["localized"] = f.localized;
-      if (f.localized > 0) k["inliers_mean"] = static_cast<double>(f.inliers) / f.localized;
+      if (f.localized > 0) {
+        k["inliers_mean"] =
+            static_cast<double>(std::accumulate(f.inliers_per_fix.begin(), f.inliers_per_fix.end(), 0L)) / f.localized;
+      }
       // Every fix: where its image was taken relative to the probe (along, across, yaw), its error, its inliers.
       for (std::size_t i = 0; i < f.errors.size(); ++i) {
         k["fixes"].push_back({{"offset", {f.offsets[i].x(), f.offsets[i].y(), f.offsets[i].z()}},
