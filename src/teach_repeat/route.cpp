@@ -507,7 +507,7 @@ Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t key
 }
 
 Status writeKeyframeFeatures(const Route& route, std::size_t keyframe, const ImageFeatures& features) {
-  const Status valid = checkKeyframe(route, keyframe);
+  Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;
   return writeFeaturesFile(route.directory + "/" + route.keyframes[keyframe].features_file, features);
 }
