@@ -28,6 +28,13 @@
 // keyframe keypoint's own (1/2 for iid noise in both images).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
 //                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
+//                        [--images rendered|warped] [--inliers-out FILE]
+// How smooth each fix's current-image errors are: an affine field of the image fitted to them
+// explains 3/n of their variance if they are independent (`current_part_affine`, its share over
+// that and how much its coefficients vary from fix to fix). `--images warped` localizes the
+// keyframe's own image moved by its plane's homography to each fix's pose instead of a rendered one
+// (the detector's answer to a change of view alone; the rendered images are still drawn, so a seed
+// gives the same poses). `--inliers-out` writes every fix's inliers with their true positions (CSV).
 // The simulator knows where every inlier truly is: each keyframe pixel's ray meets a wall, which
 // projects into the image's camera. The RMS of the inliers' distance from there (per coordinate,
 // pooled over the route) is printed and written; `--pixel-sigma measure` makes it / √2 the
@@ -36,12 +43,15 @@
 // Writes OUT/route_audit_spread.json and OUT/route_audit_spread.png.
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <numeric>
@@ -51,6 +61,7 @@
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
@@ -141,13 +152,16 @@ int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
-                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"plots", "1"}},
+                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"plots", "1"},
+                       {"images", "rendered"}, {"inliers-out", ""}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] (the simulator's camera) [--seed S]\n"
                       "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's)\n"
                       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
-                      "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]");
+                      "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]\n"
+                      "  [--images rendered|warped] (warped: the keyframe's own image moved by its plane's homography)\n"
+                      "  [--inliers-out FILE] (every fix's inliers and their true positions, CSV)");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
@@ -156,6 +170,8 @@ int main(int argc, char** argv) {
   if (samples < kMinSpreadSamples) {
     args.fail("--samples must be >= " + std::to_string(kMinSpreadSamples) + " (the spread is taken about a fit of 4 numbers)");
   }
+  const bool warped_images = args.text("images") == "warped";
+  if (!warped_images && args.text("images") != "rendered") args.fail("--images must be rendered or warped");
   const double jitter = args.number("jitter");
   const double jitter_yaw = args.number("jitter-yaw");
   if (!(jitter >= 0.0) || !(jitter_yaw >= 0.0)) args.fail("--jitter and --jitter-yaw must be >= 0");
@@ -181,6 +197,16 @@ int main(int argc, char** argv) {
     audit_options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
     audit_options.stretch_noise_gain = args.number("stretch-noise-gain");
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
+    if (warped_images && camera.hasDistortion()) {
+      throw std::runtime_error("--images warped needs a camera without distortion (the warp is the pinhole's homography)");
+    }
+    std::ofstream inliers_out;
+    if (!args.text("inliers-out").empty()) {
+      inliers_out.open(args.text("inliers-out"));
+      if (!inliers_out) throw std::runtime_error("cannot write " + args.text("inliers-out"));
+      inliers_out << std::setprecision(10) << "keyframe,fix,reference_u,reference_v,current_u,current_v,true_u,true_v,offset_along_m,"
+                     "offset_across_m,offset_yaw_rad\n";
+    }
     if (measure_pixel_sigma && camera.hasDistortion()) {
       throw std::runtime_error("--pixel-sigma measure needs a camera without distortion (the true transfer is the pinhole's)");
     }
@@ -206,6 +232,10 @@ int main(int argc, char** argv) {
       std::vector<std::vector<InlierTruth>> inlier_truths;  // per fix, its inliers whose true position is known
       // Per part, the offsets and errors of the fixes re-solved with it (ErrorPart).
       std::vector<Eigen::Vector3d> part_offsets[kErrorParts], part_errors[kErrorParts];
+      // Per fix re-solved: an affine field of the image fitted to its current-image part, the share
+      // of that part's variance it explains, and its six coefficients [px at the image's edge].
+      std::vector<double> affine_shares, affine_shares_if_independent;
+      std::vector<Eigen::Matrix<double, 6, 1>> affine_coefficients;
       int localized = 0;
       // The inliers' true error (each match's current pixel against where its keyframe pixel truly
       // is): the pixel noise the fixes actually had.
@@ -223,6 +253,12 @@ int main(int argc, char** argv) {
       Fixes& f = fixes[index];
       const Pose2D probe_pose = keyframe.pose.compose(probe);  // the route frame is the world's (teach odometry exact)
       const Pose2D keyframe_camera = keyframe.pose.compose(Pose2D(m.x, m.y, m.yaw));
+      cv::Mat keyframe_image;
+      if (warped_images) {
+        auto loaded = loadKeyframeImage(*route, index);
+        if (!loaded) throw std::runtime_error(loaded.status().message());
+        keyframe_image = std::move(*loaded);
+      }
       for (int s = 0; s < samples; ++s) {
         // Drawn in this order (yaw, across, along) so that a seed gives the images it gave before.
         const double yaw = rng.uniform(-jitter_yaw, jitter_yaw);
@@ -230,7 +266,17 @@ int main(int argc, char** argv) {
         const Pose2D offset(rng.uniform(-jitter, jitter), across, yaw);
         const Pose2D truth = probe_pose.compose(offset);
         const Pose2D camera_pose = truth.compose(Pose2D(m.x, m.y, m.yaw));
-        const cv::Mat image = renderer.render(*world, camera_pose, 1.0, rng);
+        // Rendered in either case: the draws of its noise keep the next offsets those of the rendered run.
+        cv::Mat image = renderer.render(*world, camera_pose, 1.0, rng);
+        if (warped_images) {
+          // The keyframe's image as its plane's homography moves it to this camera: the same
+          // picture seen from elsewhere (what the detector does with a change of view alone).
+          const PlanarPose relative = mount.baseToCamera(keyframe.pose.inverse().compose(truth));
+          cv::Mat H;
+          cv::eigen2cv(Eigen::Matrix3d(planeInducedHomography(camera, relative, *keyframe.plane)), H);
+          cv::warpPerspective(keyframe_image, image, H, keyframe_image.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                              cv::Scalar(world->floor_colour[0], world->floor_colour[1], world->floor_colour[2]));
+        }
         localizer->setTrackedKeyframe(static_cast<int>(index));
         const auto estimate = localizer->localize(image);
         if (!estimate || !estimate->has_pose || estimate->keyframe != static_cast<int>(index)) {
@@ -252,6 +298,14 @@ int main(int argc, char** argv) {
         for (const PointMatch& match : estimate->inlier_matches) {
           const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, match.reference);
           if (truly) f.inlier_truths.back().push_back({match, *truly});
+        }
+      }
+      for (std::size_t fix = 0; fix < f.inlier_truths.size() && inliers_out.is_open(); ++fix) {
+        for (const InlierTruth& inlier : f.inlier_truths[fix]) {
+          inliers_out << index << ',' << fix << ',' << inlier.match.reference.x() << ',' << inlier.match.reference.y()
+                      << ',' << inlier.match.current.x() << ',' << inlier.match.current.y() << ',' << inlier.truly.x()
+                      << ',' << inlier.truly.y() << ',' << f.offsets[fix].x() << ',' << f.offsets[fix].y() << ','
+                      << f.offsets[fix].z() << '\n';
         }
       }
       for (const std::vector<InlierTruth>& fix : f.inlier_truths) {
@@ -282,6 +336,25 @@ int main(int argc, char** argv) {
           truly.push_back(inlier.truly);
           keyframe_part.push_back(own->second);
           current_part.push_back(inlier.match.current - inlier.truly - own->second);
+        }
+        // How smooth the current image's part is: an affine field of the image position (x and y
+        // scaled to ±1 at the image's edges) fitted to it explains 3/n of its variance per
+        // coordinate if the errors are independent, more where they move together.
+        if (current_part.size() > 6) {
+          const auto rows = static_cast<Eigen::Index>(current_part.size());
+          Eigen::MatrixXd A(rows, 3), E(rows, 2);
+          for (Eigen::Index i = 0; i < rows; ++i) {
+            const Eigen::Vector2d& at = truly[static_cast<std::size_t>(i)];
+            A.row(i) << 1.0, (at.x() - camera.cx()) / camera.cx(), (at.y() - camera.cy()) / camera.cy();
+            E.row(i) = current_part[static_cast<std::size_t>(i)].transpose();
+          }
+          const Eigen::MatrixXd coefficients = A.colPivHouseholderQr().solve(E);  // 3 x 2
+          const double total = E.squaredNorm();
+          if (total > 0.0) {
+            f.affine_shares.push_back((A * coefficients).squaredNorm() / total);
+            f.affine_shares_if_independent.push_back(3.0 / static_cast<double>(rows));
+            f.affine_coefficients.push_back(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(coefficients.data()));
+          }
         }
         std::vector<Eigen::Vector2d> shuffled = current_part;
         for (std::size_t i = shuffled.size(); i > 1; --i) {
@@ -364,6 +437,7 @@ int main(int argc, char** argv) {
     int bias_within_2_sigma = 0;
     int part_within[kErrorParts] = {0, 0, 0}, part_compared[kErrorParts] = {0, 0, 0};
     double bias_z_squares = 0.0;
+    std::vector<std::pair<double, int>> affine_share_ratios;  // (share over the independent errors' share, keyframe)
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
                 "ratio measured/predicted (along, across, heading) | the same of the spread from fix to fix");
     for (const KeyframeAudit& a : audit->keyframes) {
@@ -386,6 +460,19 @@ int main(int argc, char** argv) {
       }
       if (f.match_coordinates > 0) {
         k["match_error_px"] = std::sqrt(f.match_error_squares / static_cast<double>(f.match_coordinates));
+      }
+      if (!f.affine_shares.empty()) {
+        const auto count = static_cast<double>(f.affine_shares.size());
+        const double share = std::accumulate(f.affine_shares.begin(), f.affine_shares.end(), 0.0) / count;
+        const double independent =
+            std::accumulate(f.affine_shares_if_independent.begin(), f.affine_shares_if_independent.end(), 0.0) / count;
+        Eigen::Matrix<double, 6, 1> mean_coefficients = Eigen::Matrix<double, 6, 1>::Zero(), squares = mean_coefficients;
+        for (const auto& c : f.affine_coefficients) mean_coefficients += c / count;
+        for (const auto& c : f.affine_coefficients) squares += (c - mean_coefficients).cwiseAbs2() / count;
+        k["current_part_affine"] = {{"share", share}, {"share_if_independent", independent},
+                                    {"share_ratio", share / independent},
+                                    {"coefficient_spread_px", squares.cwiseSqrt().mean()}};
+        affine_share_ratios.emplace_back(share / independent, a.keyframe);
       }
       if (!a.predicted_covariance) {
         k["problem"] = a.prediction_problem.empty() ? "no prediction" : a.prediction_problem;
@@ -473,6 +560,16 @@ int main(int argc, char** argv) {
       summary["spread_by_error_part"][kErrorPartNames[part]] = {{"compared", part_compared[part]},
                                                                 {"within_factor_2", part_within[part]}};
     }
+    std::string smooth_keyframes;
+    if (!affine_share_ratios.empty()) {
+      std::vector<double> ratios;
+      for (const auto& [ratio, keyframe] : affine_share_ratios) {
+        ratios.push_back(ratio);
+        if (ratio >= 1.5) smooth_keyframes += (smooth_keyframes.empty() ? "" : ", ") + std::to_string(keyframe);
+      }
+      std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2), ratios.end());
+      summary["current_part_affine_share_ratio_median"] = ratios[ratios.size() / 2];
+    }
     document["summary"] = summary;
     std::printf("%d of %d ratios within a factor of 2; correlation of log sigma predicted vs measured: along %.2f, "
                 "across %.2f, heading %.2f\n",
@@ -488,6 +585,12 @@ int main(int argc, char** argv) {
                 "keyframe keypoints' part alone: %d of %d\n",
                 part_within[kCurrentPart], part_compared[kCurrentPart], part_within[kCurrentPartShuffled],
                 part_compared[kCurrentPartShuffled], part_within[kKeyframePart], part_compared[kKeyframePart]);
+    if (summary.contains("current_part_affine_share_ratio_median")) {
+      std::printf("the current image's part of a fix's errors: an affine field of the image explains a median %.2f times "
+                  "the share it would of independent errors (1.5 times or more at keyframes %s)\n",
+                  summary["current_part_affine_share_ratio_median"].get<double>(),
+                  smooth_keyframes.empty() ? "none" : smooth_keyframes.c_str());
+    }
     std::printf("bias (each keyframe's mean error) over its predicted sigma: %d of %d within 2 sigma, mean z^2 %.2f "
                 "(a right model: 95 %%, 1)\n",
                 bias_within_2_sigma, compared, summary["bias_mean_z_squared"].get<double>());
