@@ -102,11 +102,30 @@ void RenderOptions::validate() const {
     throw std::invalid_argument("render: lamp_contrast must be in [0, 1)");
   }
   if (!std::isfinite(lamp_spacing) || !(lamp_spacing > 0.0)) throw std::invalid_argument("render: lamp_spacing must be > 0");
+  if (supersampling < 1 || supersampling > 8) throw std::invalid_argument("render: supersampling must be in [1, 8]");
 }
 
 WorldRenderer::WorldRenderer(const PinholeCamera& camera, const RenderOptions& options)
     : camera_(camera), options_(options) {
   options_.validate();
+  if (options_.supersampling > 1) {
+    // Pixel (u, v) covers the fine pixels k·u .. k·u + k − 1, whose centre is k·u + (k − 1)/2.
+    const int k = options_.supersampling;
+    CameraCalibration fine = camera_.calibration();
+    fine.width *= k;
+    fine.height *= k;
+    fine.fx *= k;
+    fine.fy *= k;
+    fine.cx = k * fine.cx + 0.5 * (k - 1);
+    fine.cy = k * fine.cy + 0.5 * (k - 1);
+    RenderOptions samples = options_;
+    samples.supersampling = 1;
+    samples.noise_sigma = 0.0;
+    samples.blur_sigma = 0.0;
+    samples.exposure_time = 0.0;
+    fine_ = std::make_shared<const WorldRenderer>(PinholeCamera(fine), samples);
+    return;
+  }
   if (!camera_.hasDistortion() && options_.camera_pitch == 0.0 && options_.camera_roll == 0.0) return;
   // Each pixel's ray: undistorted through the lens model, then from the tilted camera to the
   // level one (the optical frame of opticalToBase() against that of a level mount).
@@ -130,6 +149,43 @@ Eigen::Matrix3d WorldRenderer::opticalToBase() const {
 
 cv::Mat WorldRenderer::render(const PlanarWorld& world, const Pose2D& camera_pose, double gain,
                               cv::RNG& rng, double yaw_rate) const {
+  cv::Mat image;
+  if (fine_) {
+    // The lens blurs the scene before the sensor samples it; each pixel integrates over its area.
+    cv::Mat fine = fine_->renderSamples(world, camera_pose, gain);
+    if (options_.blur_sigma > 0.0) cv::GaussianBlur(fine, fine, cv::Size(), options_.blur_sigma * options_.supersampling);
+    cv::resize(fine, image, cv::Size(camera_.width(), camera_.height()), 0.0, 0.0, cv::INTER_AREA);
+  } else {
+    image = renderSamples(world, camera_pose, gain);
+  }
+  const double blur_length = std::abs(yaw_rate) * options_.exposure_time * camera_.fx();  // [px]
+  if (blur_length > 1.0) {
+    // The image sweeps horizontally by blur_length during the exposure, centred on the stamp's
+    // pose: a box of that length along rows, centred on the pixel (an odd kernel whose end taps
+    // hold the fraction of a pixel the box covers). cv::blur's even kernels are anchored half a
+    // pixel off centre: at 0.3 rad/s and 8 ms that shifted every image by 0.5 px (0.06° of
+    // heading, as much as a fix's σ).
+    const int half = static_cast<int>(std::ceil(0.5 * blur_length - 0.5));
+    cv::Mat kernel(1, 2 * half + 1, CV_32F);
+    for (int o = -half; o <= half; ++o) {
+      const double overlap = std::min(o + 0.5, 0.5 * blur_length) - std::max(o - 0.5, -0.5 * blur_length);
+      kernel.at<float>(0, o + half) = static_cast<float>(std::max(0.0, overlap) / blur_length);
+    }
+    cv::filter2D(image, image, -1, kernel, cv::Point(-1, -1), 0.0, cv::BORDER_REFLECT);
+  }
+  if (!fine_ && options_.blur_sigma > 0.0) cv::GaussianBlur(image, image, cv::Size(), options_.blur_sigma);
+  if (options_.noise_sigma > 0.0) {
+    cv::Mat noise(image.size(), CV_16SC3);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, options_.noise_sigma);
+    cv::Mat noisy;
+    image.convertTo(noisy, CV_16SC3);
+    noisy += noise;
+    noisy.convertTo(image, CV_8UC3);
+  }
+  return image;
+}
+
+cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& camera_pose, double gain) const {
   const int width = camera_.width(), height = camera_.height();
   cv::Mat image(height, width, CV_8UC3);
   const Eigen::Vector2d origin(camera_pose.x, camera_pose.y);
@@ -164,30 +220,6 @@ cv::Mat WorldRenderer::render(const PlanarWorld& world, const Pose2D& camera_pos
         put(v, u, colourAlong(world, origin, horizontal, hit, ray.y(), surroundings));
       }
     }
-  }
-  const double blur_length = std::abs(yaw_rate) * options_.exposure_time * camera_.fx();  // [px]
-  if (blur_length > 1.0) {
-    // The image sweeps horizontally by blur_length during the exposure, centred on the stamp's
-    // pose: a box of that length along rows, centred on the pixel (an odd kernel whose end taps
-    // hold the fraction of a pixel the box covers). cv::blur's even kernels are anchored half a
-    // pixel off centre: at 0.3 rad/s and 8 ms that shifted every image by 0.5 px (0.06° of
-    // heading, as much as a fix's σ).
-    const int half = static_cast<int>(std::ceil(0.5 * blur_length - 0.5));
-    cv::Mat kernel(1, 2 * half + 1, CV_32F);
-    for (int o = -half; o <= half; ++o) {
-      const double overlap = std::min(o + 0.5, 0.5 * blur_length) - std::max(o - 0.5, -0.5 * blur_length);
-      kernel.at<float>(0, o + half) = static_cast<float>(std::max(0.0, overlap) / blur_length);
-    }
-    cv::filter2D(image, image, -1, kernel, cv::Point(-1, -1), 0.0, cv::BORDER_REFLECT);
-  }
-  if (options_.blur_sigma > 0.0) cv::GaussianBlur(image, image, cv::Size(), options_.blur_sigma);
-  if (options_.noise_sigma > 0.0) {
-    cv::Mat noise(image.size(), CV_16SC3);
-    rng.fill(noise, cv::RNG::NORMAL, 0.0, options_.noise_sigma);
-    cv::Mat noisy;
-    image.convertTo(noisy, CV_16SC3);
-    noisy += noise;
-    noisy.convertTo(image, CV_8UC3);
   }
   return image;
 }

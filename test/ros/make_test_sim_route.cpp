@@ -2,10 +2,12 @@
 // same core: WaypointDriver on DifferentialDriveSim with perfect odometry, ending with a turn to
 // the start heading, WorldRenderer at 10 Hz, TeachSession with planes from odometry), for the
 // closed-loop rostest's fixture.
-//   make_test_sim_route [--seed=N] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+//   make_test_sim_route [--seed=N] [--supersampling=K] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
 // --seed: the renderer's noise (default 1, the fixture's). With the odometry perfect, routes taught
 // with other seeds have the same keyframe poses and other draws of the images' noise, hence of the
 // planes' and the features' errors (evaluate_route_audit pools over such routes).
+// --supersampling: RenderOptions::supersampling (default 1, the simulator's; K > 1 band-limits the
+// images as a real camera's, K² times slower).
 // The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
 #include <opencv2/core.hpp>
 
@@ -14,6 +16,7 @@
 #include <iostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
@@ -35,18 +38,29 @@ Eigen::Vector2d parsePoint(const std::string& text) {
 
 int main(int argc, char** argv) {
   int seed = 1;
-  if (argc > 1 && std::string(argv[1]).rfind("--seed=", 0) == 0) {
-    try {
-      seed = std::stoi(std::string(argv[1]).substr(7));
-    } catch (const std::exception&) {
-      std::cerr << "make_test_sim_route: --seed needs an integer, got '" << argv[1] << "'\n";
-      return 2;
+  int supersampling = 1;
+  // Leading options, each --name=integer.
+  const std::pair<const char*, int*> options[] = {{"--seed=", &seed}, {"--supersampling=", &supersampling}};
+  for (bool consumed = true; consumed && argc > 1;) {
+    consumed = false;
+    for (const auto& [prefix, value] : options) {
+      const std::string argument = argv[1];
+      if (argument.rfind(prefix, 0) != 0) continue;
+      try {
+        *value = std::stoi(argument.substr(std::string(prefix).size()));
+      } catch (const std::exception&) {
+        std::cerr << "make_test_sim_route: " << prefix << " needs an integer, got '" << argument << "'\n";
+        return 2;
+      }
+      ++argv;
+      --argc;
+      consumed = true;
+      break;
     }
-    ++argv;
-    --argc;
   }
   if (argc < 6) {
-    std::cerr << "usage: make_test_sim_route [--seed=N] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 [X2,Y2 ...]\n";
+    std::cerr << "usage: make_test_sim_route [--seed=N] [--supersampling=K] WORLD.yaml DIRECTORY FEATURE START_X,START_Y "
+                 "X1,Y1 [X2,Y2 ...]\n";
     return 2;
   }
   try {
@@ -66,6 +80,7 @@ int main(int argc, char** argv) {
     render.camera_height = 0.6;
     render.noise_sigma = 2.0;
     render.blur_sigma = 0.5;
+    render.supersampling = supersampling;
     const htr::WorldRenderer renderer{htr::PinholeCamera(calibration), render};
     const htr::Pose2D mount(0.2, 0.0, 0.0);
 

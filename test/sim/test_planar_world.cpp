@@ -105,6 +105,66 @@ TEST(WorldRenderer, TwoViewsOfAWallAreRelatedByThePlaneHomography) {
 }
 
 // A near wall hides the far one in the columns it covers; walls behind the camera are not drawn.
+// Supersampling renders the same geometry: a wall seen from 1 m (a texel spans several pixels, so
+// one sample per pixel does not alias it) looks the same with k = 2, closer than the same image
+// moved by a quarter pixel (what a wrong pixel centre of the fine image, (k − 1)/2, would do).
+TEST(WorldRenderer, SupersamplingKeepsThePixelsWhereTheyAre) {
+  const PlanarWorld world = oneWall();
+  RenderOptions options;
+  options.blur_sigma = 0.5;
+  const WorldRenderer sampled(simCamera(), options);
+  options.supersampling = 2;
+  const WorldRenderer supersampled(simCamera(), options);
+  cv::RNG rng(1);
+  const Pose2D pose(3.0, 0.1, 0.05);
+  cv::Mat a, b, moved;
+  sampled.render(world, pose, 1.0, rng).convertTo(a, CV_32F);
+  supersampled.render(world, pose, 1.0, rng).convertTo(b, CV_32F);
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 0.25, 0, 1, 0.25);
+  cv::warpAffine(a, moved, shift, a.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  const cv::Rect inner(20, 20, a.cols - 40, a.rows - 40);
+  const double same = cv::mean(cv::abs(a(inner) - b(inner)))[0];
+  const double quarter_pixel = cv::mean(cv::abs(a(inner) - moved(inner)))[0];
+  EXPECT_LT(same, 0.5 * quarter_pixel) << "mean |difference| [grey levels]: " << same << " against " << quarter_pixel;
+}
+
+// A texture finer than the pixels (stripes of 8 mm seen from 3 m, a pixel spans 6 mm): one sample
+// per pixel aliases it into coarse full-contrast stripes; supersampled, the lens and the pixel's
+// area average it to its mean grey, as a camera would.
+TEST(WorldRenderer, SupersamplingBandLimitsATextureFinerThanThePixels) {
+  cv::Mat stripes(96, 96, CV_8UC3);  // whole periods: the tiled texture is periodic
+  for (int c = 0; c < stripes.cols; ++c) stripes.col(c).setTo(cv::Scalar::all((c / 4) % 2 == 0 ? 0 : 255));
+  PlanarWorld world;
+  world.source = "test";
+  Wall wall = makeWall({4.0, 3.0}, {4.0, -3.0}, stripes, 3.0);
+  wall.texture_width = 0.096;  // 1 mm per texel, tiled
+  wall.texture_height = 0.096;
+  world.walls.push_back(wall);
+  RenderOptions options;
+  options.blur_sigma = 0.5;
+  const WorldRenderer sampled(simCamera(), options);
+  options.supersampling = 4;
+  const WorldRenderer supersampled(simCamera(), options);
+  cv::RNG rng(1);
+  const Pose2D pose(1.0, 0.0, 0.0);
+  const cv::Rect on_wall(200, 200, 240, 80);  // the wall fills the image's middle rows
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(sampled.render(world, pose, 1.0, rng)(on_wall), mean, deviation);
+  EXPECT_GT(deviation[0], 30.0) << "one sample per pixel aliases the stripes";  // 100 when written
+  cv::meanStdDev(supersampled.render(world, pose, 1.0, rng)(on_wall), mean, deviation);
+  // 8 when written: the stripes' sharp edges have harmonics beyond even the fine image's pixels.
+  EXPECT_LT(deviation[0], 12.0);
+  EXPECT_NEAR(mean[0], 127.5, 8.0);
+}
+
+TEST(WorldRenderer, SupersamplingOutsideItsRangeIsRefused) {
+  RenderOptions options;
+  for (const int k : {0, 9}) {
+    options.supersampling = k;
+    EXPECT_THROW(WorldRenderer(simCamera(), options), std::invalid_argument);
+  }
+}
+
 TEST(WorldRenderer, OcclusionAndClippingBehindTheCamera) {
   PlanarWorld world;
   world.source = "test";

@@ -12,11 +12,14 @@
 // not level (pitch and roll of base_link, REP-103), lamps along the walls (a brightness that
 // varies along each wall), and motion blur from the robot's turning during the exposure. Any of
 // the first two switches from the per-column renderer to one ray per pixel (slower, same model).
+// A pixel integrates the light over its area through a lens that blurs: with supersampling the
+// image is band-limited as a real camera's; without it each pixel samples one point of the scene.
 #pragma once
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <memory>
 #include <vector>
 
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
@@ -34,6 +37,11 @@ struct RenderOptions {
   double exposure_time = 0.0;  // [s] >= 0: the image is blurred along the rotation of this interval
   double lamp_contrast = 0.0;  // [0, 1): wall brightness 1 + c cos(2 pi s / lamp_spacing), s along the wall
   double lamp_spacing = 3.0;   // [m] > 0: distance between two lamps along a wall
+  // [1-8] 1: one sample of the scene per pixel (fast; a wall whose texture has more detail than
+  // the pixels alias it). k > 1: the scene rendered at k times the resolution, blurred by the lens
+  // (blur_sigma, before the sensor samples it) and each pixel the mean of its k x k: a band-limited
+  // image as a real camera's (docs/simulator.md, "What a pixel sees"), k² times slower.
+  int supersampling = 1;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -61,6 +69,11 @@ class WorldRenderer {
   // One ray per pixel (row-major) in the level optical frame, when the lens distorts or the mount
   // tilts; empty for the ideal level pinhole, which is rendered column by column.
   std::vector<Eigen::Vector3d> pixel_rays_;
+  // With supersampling k > 1: the same camera at k times the resolution, without noise and blur.
+  std::shared_ptr<const WorldRenderer> fine_;
+
+  // The scene's colour at each pixel, one sample per pixel (before blur and noise).
+  cv::Mat renderSamples(const PlanarWorld& world, const Pose2D& camera_pose, double gain) const;
 };
 
 // Ranges of a planar scanner at `pose` (world frame): `count` beams from angle_min to angle_max
