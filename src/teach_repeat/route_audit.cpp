@@ -47,13 +47,12 @@ struct PredictedFix {
   double stretch_noise_scale = 1.0;
 };
 
-Expected<PredictedFix> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
-                                  const CameraMount& mount, const RouteAuditOptions& options,
-                                  double pixel_noise_scale) {
-  const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
-  const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
+// The keyframe's plane features a camera at `relative` (camera frame) sees, as exact matches
+// through the plane's homography (undistorted keyframe pixel, pixel in that camera).
+PointMatches planeFeaturesInView(const KeyframeReference& reference, const PinholeCamera& camera,
+                                 const PlanarPose& relative) {
+  const Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
   PointMatches matches;
-  std::vector<Eigen::Vector2d> seen;  // the keyframe pixels of `matches`
   for (const cv::KeyPoint& keypoint : reference.features.keypoints) {
     const cv::Point2d undistorted = camera.undistortPixel(cv::Point2d(keypoint.pt.x, keypoint.pt.y));
     const Eigen::Vector3d moved = H * Eigen::Vector3d(undistorted.x, undistorted.y, 1.0);
@@ -61,8 +60,18 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
     const Eigen::Vector2d current = moved.hnormalized();
     if (!camera.isInside(cv::Point2d(current.x(), current.y()))) continue;
     matches.push_back(PointMatch{Eigen::Vector2d(undistorted.x, undistorted.y), current});
-    seen.push_back(matches.back().reference);
   }
+  return matches;
+}
+
+Expected<PredictedFix> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
+                                  const CameraMount& mount, const RouteAuditOptions& options,
+                                  double pixel_noise_scale) {
+  const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
+  const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
+  const PointMatches matches = planeFeaturesInView(reference, camera, probe);
+  std::vector<Eigen::Vector2d> seen;  // the keyframe pixels of `matches`
+  for (const PointMatch& match : matches) seen.push_back(match.reference);
   const double stretch = matchStretchNoiseScale(H, seen, options.stretch_noise_gain);
   PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
   pose_options.pixel_sigma_px *= pixel_noise_scale * stretch;
@@ -228,6 +237,12 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     double rms() const { return inliers > 0 ? std::sqrt(squares / static_cast<double>(inliers)) : 0.0; }
   };
   std::vector<int> neighbour_inliers(static_cast<std::size_t>(n), -1);
+  // The part of its plane features in a neighbour's view that the neighbour matched: the better
+  // neighbour's (one that sees at least min_inliers of them). Where the teach run turned in place
+  // the neighbour sees only a corner of this keyframe's wall, and its inliers over all the plane
+  // features would say the wall matches badly where only few features were in view.
+  std::vector<double> neighbour_fraction(static_cast<std::size_t>(n), -1.0);
+  std::vector<int> neighbour_in_view(static_cast<std::size_t>(n), -1);
   std::vector<Residual> residuals(static_cast<std::size_t>(n));
   Residual route_residual;
   for (int k = 0; k < n; ++k) {
@@ -237,6 +252,15 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
       const Relocalization found =
           relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat);
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
+      if (references[i].plane) {
+        const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
+        const int in_view = static_cast<int>(planeFeaturesInView(references[i], camera, mount.baseToCamera(relative)).size());
+        const double fraction = static_cast<double>(found.inliers) / std::max(in_view, 1);
+        if (in_view >= options.repeat.min_inliers && fraction > neighbour_fraction[i]) {
+          neighbour_fraction[i] = fraction;
+          neighbour_in_view[i] = in_view;
+        }
+      }
       const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
       residuals[i].add(found, stretch);
       route_residual.add(found, stretch);
@@ -274,8 +298,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
         // descriptors of a view from elsewhere): as large a part as the neighbour matched. The
         // covariance of n matches goes as 1/n (docs/route_audit.md: the simulator's room, fixes
         // 0.3 m off the path kept 17-78 % of the features in view).
+        a.neighbour_plane_features_in_view = neighbour_in_view[static_cast<std::size_t>(k)];
+        const double fraction = neighbour_fraction[static_cast<std::size_t>(k)];
         a.expected_match_fraction =
-            a.neighbour_inliers >= 0 && a.plane_features > 0
+            fraction >= 0.0 ? std::min(1.0, fraction)
+            : a.neighbour_inliers >= 0 && a.plane_features > 0
                 ? std::min(1.0, static_cast<double>(a.neighbour_inliers) / a.plane_features)
                 : 1.0;
         const double expected_matches = a.expected_match_fraction * a.predicted_matches;

@@ -72,7 +72,11 @@ struct KeyframeAudit {
   // predicted_covariance.
   std::optional<Eigen::Matrix3d> predicted_fix_to_fix_covariance;
   int predicted_matches = 0;             // the plane features that fix sees
-  double expected_match_fraction = 1.0;  // of those, the part it matches (neighbour_inliers / plane_features)
+  // Of those, the part it matches: the better neighbour's inliers over the plane features in its
+  // view (neighbour_plane_features_in_view; -1 where no neighbour sees min_inliers of them, and
+  // then neighbour_inliers / plane_features).
+  double expected_match_fraction = 1.0;
+  int neighbour_plane_features_in_view = -1;
   std::string prediction_problem;
   int lines = 0;
   int line_landmarks = 0;

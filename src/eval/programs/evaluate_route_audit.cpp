@@ -449,7 +449,8 @@ int main(int argc, char** argv) {
                           {"neighbour_inliers", a.neighbour_inliers}, {"pixel_noise_scale", a.pixel_noise_scale},
                           {"stretch_noise_scale", a.stretch_noise_scale},
                           {"predicted_matches", a.predicted_matches},
-                          {"expected_match_fraction", a.expected_match_fraction}};
+                          {"expected_match_fraction", a.expected_match_fraction},
+                          {"neighbour_plane_features_in_view", a.neighbour_plane_features_in_view}};
       const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];
       k["localized"] = f.localized;
       if (f.localized > 0) {

@@ -49,6 +49,7 @@ nlohmann::json toJson(const KeyframeAudit& a) {
                                        {"heading_rad", std::sqrt(spread(2, 2))}};
     k["predicted_matches"] = a.predicted_matches;
     k["expected_match_fraction"] = a.expected_match_fraction;
+    k["neighbour_plane_features_in_view"] = a.neighbour_plane_features_in_view;
   } else {
     k["predicted_sigma"] = nullptr;
     k["prediction_problem"] = a.prediction_problem;
