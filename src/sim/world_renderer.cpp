@@ -118,11 +118,8 @@ WorldRenderer::WorldRenderer(const PinholeCamera& camera, const RenderOptions& o
     fine.fy *= k;
     fine.cx = k * fine.cx + 0.5 * (k - 1);
     fine.cy = k * fine.cy + 0.5 * (k - 1);
-    RenderOptions samples = options_;
+    RenderOptions samples = options_;  // only its samples are used (renderSamples): no blur, no noise
     samples.supersampling = 1;
-    samples.noise_sigma = 0.0;
-    samples.blur_sigma = 0.0;
-    samples.exposure_time = 0.0;
     fine_ = std::make_shared<const WorldRenderer>(PinholeCamera(fine), samples);
     return;
   }

@@ -47,11 +47,10 @@ struct PredictedFix {
   double stretch_noise_scale = 1.0;
 };
 
-// The keyframe's plane features a camera at `relative` (camera frame) sees, as exact matches
-// through the plane's homography (undistorted keyframe pixel, pixel in that camera).
+// The keyframe's plane features another camera sees, as exact matches through H, the plane's
+// homography from the keyframe to it (undistorted keyframe pixel, pixel in that camera).
 PointMatches planeFeaturesInView(const KeyframeReference& reference, const PinholeCamera& camera,
-                                 const PlanarPose& relative) {
-  const Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
+                                 const Eigen::Matrix3d& H) {
   PointMatches matches;
   for (const cv::KeyPoint& keypoint : reference.features.keypoints) {
     const cv::Point2d undistorted = camera.undistortPixel(cv::Point2d(keypoint.pt.x, keypoint.pt.y));
@@ -69,7 +68,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
                                   double pixel_noise_scale) {
   const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
   const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
-  const PointMatches matches = planeFeaturesInView(reference, camera, probe);
+  const PointMatches matches = planeFeaturesInView(reference, camera, H);
   std::vector<Eigen::Vector2d> seen;  // the keyframe pixels of `matches`
   for (const PointMatch& match : matches) seen.push_back(match.reference);
   const double stretch = matchStretchNoiseScale(H, seen, options.stretch_noise_gain);
@@ -241,8 +240,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   // neighbour's (one that sees at least min_inliers of them). Where the teach run turned in place
   // the neighbour sees only a corner of this keyframe's wall, and its inliers over all the plane
   // features would say the wall matches badly where only few features were in view.
-  std::vector<double> neighbour_fraction(static_cast<std::size_t>(n), -1.0);
-  std::vector<int> neighbour_in_view(static_cast<std::size_t>(n), -1);
+  struct NeighbourPart {
+    double fraction = -1.0;  // inliers / in_view; -1: no neighbour sees min_inliers of them
+    int in_view = -1;
+  };
+  std::vector<NeighbourPart> neighbour_part(static_cast<std::size_t>(n));
   std::vector<Residual> residuals(static_cast<std::size_t>(n));
   Residual route_residual;
   for (int k = 0; k < n; ++k) {
@@ -254,11 +256,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
       if (references[i].plane) {
         const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
-        const int in_view = static_cast<int>(planeFeaturesInView(references[i], camera, mount.baseToCamera(relative)).size());
+        const Eigen::Matrix3d H = planeInducedHomography(camera, mount.baseToCamera(relative), *references[i].plane);
+        const int in_view = static_cast<int>(planeFeaturesInView(references[i], camera, H).size());
         const double fraction = static_cast<double>(found.inliers) / std::max(in_view, 1);
-        if (in_view >= options.repeat.min_inliers && fraction > neighbour_fraction[i]) {
-          neighbour_fraction[i] = fraction;
-          neighbour_in_view[i] = in_view;
+        if (in_view >= options.repeat.min_inliers && fraction > neighbour_part[i].fraction) {
+          neighbour_part[i] = NeighbourPart{fraction, in_view};
         }
       }
       const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
@@ -298,8 +300,9 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
         // descriptors of a view from elsewhere): as large a part as the neighbour matched. The
         // covariance of n matches goes as 1/n (docs/route_audit.md: the simulator's room, fixes
         // 0.3 m off the path kept 17-78 % of the features in view).
-        a.neighbour_plane_features_in_view = neighbour_in_view[static_cast<std::size_t>(k)];
-        const double fraction = neighbour_fraction[static_cast<std::size_t>(k)];
+        const NeighbourPart& part = neighbour_part[static_cast<std::size_t>(k)];
+        a.neighbour_plane_features_in_view = part.in_view;
+        const double fraction = part.fraction;
         a.expected_match_fraction =
             fraction >= 0.0 ? std::min(1.0, fraction)
             : a.neighbour_inliers >= 0 && a.plane_features > 0

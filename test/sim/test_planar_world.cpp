@@ -9,6 +9,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <utility>
 
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/geometry/camera_tilt.h"
@@ -75,6 +76,18 @@ ScenePlane wallPlaneInCamera(const Pose2D& pose, double wall_x) {
   return plane;
 }
 
+// The image of `world` from `pose` with one sample per pixel and with `supersampling`, both with
+// the simulator's lens blur (0.5 px) and no noise.
+std::pair<cv::Mat, cv::Mat> sampledAndSupersampled(const PlanarWorld& world, const Pose2D& pose, int supersampling) {
+  RenderOptions options;
+  options.blur_sigma = 0.5;
+  const WorldRenderer sampled(simCamera(), options);
+  options.supersampling = supersampling;
+  const WorldRenderer supersampled(simCamera(), options);
+  cv::RNG rng(1);
+  return {sampled.render(world, pose, 1.0, rng), supersampled.render(world, pose, 1.0, rng)};
+}
+
 }  // namespace
 
 // The rendered images of a textured wall from two poses are related by exactly the plane-induced
@@ -104,22 +117,14 @@ TEST(WorldRenderer, TwoViewsOfAWallAreRelatedByThePlaneHomography) {
   EXPECT_LT(errors[errors.size() / 2], 0.3) << "median transfer error of the analytic homography [px]";
 }
 
-// A near wall hides the far one in the columns it covers; walls behind the camera are not drawn.
 // Supersampling renders the same geometry: a wall seen from 1 m (a texel spans several pixels, so
 // one sample per pixel does not alias it) looks the same with k = 2, closer than the same image
 // moved by a quarter pixel (what a wrong pixel centre of the fine image, (k − 1)/2, would do).
 TEST(WorldRenderer, SupersamplingKeepsThePixelsWhereTheyAre) {
-  const PlanarWorld world = oneWall();
-  RenderOptions options;
-  options.blur_sigma = 0.5;
-  const WorldRenderer sampled(simCamera(), options);
-  options.supersampling = 2;
-  const WorldRenderer supersampled(simCamera(), options);
-  cv::RNG rng(1);
-  const Pose2D pose(3.0, 0.1, 0.05);
+  const auto [one_sample, supersampled] = sampledAndSupersampled(oneWall(), Pose2D(3.0, 0.1, 0.05), 2);
   cv::Mat a, b, moved;
-  sampled.render(world, pose, 1.0, rng).convertTo(a, CV_32F);
-  supersampled.render(world, pose, 1.0, rng).convertTo(b, CV_32F);
+  one_sample.convertTo(a, CV_32F);
+  supersampled.convertTo(b, CV_32F);
   const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 0.25, 0, 1, 0.25);
   cv::warpAffine(a, moved, shift, a.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   const cv::Rect inner(20, 20, a.cols - 40, a.rows - 40);
@@ -140,23 +145,18 @@ TEST(WorldRenderer, SupersamplingBandLimitsATextureFinerThanThePixels) {
   wall.texture_width = 0.096;  // 1 mm per texel, tiled
   wall.texture_height = 0.096;
   world.walls.push_back(wall);
-  RenderOptions options;
-  options.blur_sigma = 0.5;
-  const WorldRenderer sampled(simCamera(), options);
-  options.supersampling = 4;
-  const WorldRenderer supersampled(simCamera(), options);
-  cv::RNG rng(1);
-  const Pose2D pose(1.0, 0.0, 0.0);
+  const auto [one_sample, supersampled] = sampledAndSupersampled(world, Pose2D(1.0, 0.0, 0.0), 4);
   const cv::Rect on_wall(200, 200, 240, 80);  // the wall fills the image's middle rows
   cv::Scalar mean, deviation;
-  cv::meanStdDev(sampled.render(world, pose, 1.0, rng)(on_wall), mean, deviation);
+  cv::meanStdDev(one_sample(on_wall), mean, deviation);
   EXPECT_GT(deviation[0], 30.0) << "one sample per pixel aliases the stripes";  // 100 when written
-  cv::meanStdDev(supersampled.render(world, pose, 1.0, rng)(on_wall), mean, deviation);
+  cv::meanStdDev(supersampled(on_wall), mean, deviation);
   // 8 when written: the stripes' sharp edges have harmonics beyond even the fine image's pixels.
   EXPECT_LT(deviation[0], 12.0);
   EXPECT_NEAR(mean[0], 127.5, 8.0);
 }
 
+// RenderOptions::supersampling is 1-8.
 TEST(WorldRenderer, SupersamplingOutsideItsRangeIsRefused) {
   RenderOptions options;
   for (const int k : {0, 9}) {
@@ -165,6 +165,7 @@ TEST(WorldRenderer, SupersamplingOutsideItsRangeIsRefused) {
   }
 }
 
+// A near wall hides the far one in the columns it covers; walls behind the camera are not drawn.
 TEST(WorldRenderer, OcclusionAndClippingBehindTheCamera) {
   PlanarWorld world;
   world.source = "test";

@@ -69,7 +69,7 @@ class WorldRenderer {
   // One ray per pixel (row-major) in the level optical frame, when the lens distorts or the mount
   // tilts; empty for the ideal level pinhole, which is rendered column by column.
   std::vector<Eigen::Vector3d> pixel_rays_;
-  // With supersampling k > 1: the same camera at k times the resolution, without noise and blur.
+  // With supersampling k > 1: the same camera at k times the resolution, whose samples render() averages.
   std::shared_ptr<const WorldRenderer> fine_;
 
   // The scene's colour at each pixel, one sample per pixel (before blur and noise).
