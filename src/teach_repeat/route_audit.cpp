@@ -25,6 +25,11 @@ constexpr double kLargestNoiseScale = 2.0;
 
 constexpr double kDegreesPerRadian = 180.0 / M_PI;
 
+// A neighbour whose camera stood closer than this to the keyframe's saw the same picture
+// re-projected (a turn in place moves the camera by the mount's offset times the turn: 7 cm for
+// 0.2 m and 20°), not a view from elsewhere [m].
+constexpr double kSameViewpointM = 0.1;
+
 std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
   char text[240];
   std::snprintf(text, sizeof(text), pattern, a, b, c, d);
@@ -37,7 +42,8 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 // In base_link of the robot (x forward, y left, yaw); covariance = model + the keyframe image's
 // pixel noise (reference_noise) + the current image's (current_noise), all with every feature in
 // view matched. The pixel σ is also scaled by how much the probe's view stretches the features
-// (stretch_noise_scale, RouteAuditOptions::stretch_noise_gain).
+// (stretch_noise_scale, RouteAuditOptions::stretch_noise_gain), and the stretch makes them
+// rarer to match (match_chance_scale, RouteAuditOptions::match_stretch_decay).
 struct PredictedFix {
   Eigen::Matrix3d covariance;
   Eigen::Matrix3d model;
@@ -45,6 +51,7 @@ struct PredictedFix {
   Eigen::Matrix3d current_noise;
   int matches = 0;
   double stretch_noise_scale = 1.0;
+  double match_chance_scale = 1.0;
 };
 
 // The keyframe's plane features another camera sees, as exact matches through H, the plane's
@@ -90,7 +97,8 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   return PredictedFix{toBase(estimate->covariance), toBase(estimate->model_covariance),
                       toBase(estimate->reference_noise_covariance),
                       toBase(estimate->covariance - estimate->model_covariance - estimate->reference_noise_covariance),
-                      static_cast<int>(matches.size()), stretch};
+                      static_cast<int>(matches.size()), stretch,
+                      matchChanceScale(H, seen, options.match_stretch_decay)};
 }
 
 // Keyframe `current` localized against keyframe `reference` as the repeat would: the robust
@@ -133,23 +141,41 @@ Relocalization relocalize(const KeyframeReference& reference, const ImageFeature
 
 }  // namespace
 
+std::optional<double> localStretch(const Eigen::Matrix3d& H, const Eigen::Vector2d& pixel) {
+  const Eigen::Vector3d mapped = H * pixel.homogeneous();
+  if (!(std::abs(mapped.z()) > 0.0)) return std::nullopt;
+  // d(H x)ₕ/dx = (H₁₂ − (H x)ₕ h₃ᵀ) / w, H₁₂ the top-left 2x2 block, h₃ᵀ the first two of H's last row.
+  const Eigen::Matrix2d local = (H.topLeftCorner<2, 2>() - mapped.hnormalized() * H.block<1, 2>(2, 0)) / mapped.z();
+  const Eigen::Vector2d singular = Eigen::JacobiSVD<Eigen::Matrix2d>(local).singularValues();
+  if (!(singular(1) > 0.0) || !std::isfinite(singular(0))) return std::nullopt;
+  return singular(0) / singular(1);
+}
+
 double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain) {
   if (gain == 0.0) return 1.0;
   double squares = 0.0;
   int counted = 0;
   for (const Eigen::Vector2d& pixel : pixels) {
-    const Eigen::Vector3d mapped = H * pixel.homogeneous();
-    if (!(std::abs(mapped.z()) > 0.0)) continue;
-    // d(H x)ₕ/dx = (H₁₂ − (H x)ₕ h₃ᵀ) / w, H₁₂ the top-left 2x2 block, h₃ᵀ the first two of H's last row.
-    const Eigen::Matrix2d local =
-        (H.topLeftCorner<2, 2>() - mapped.hnormalized() * H.block<1, 2>(2, 0)) / mapped.z();
-    const Eigen::Vector2d singular = Eigen::JacobiSVD<Eigen::Matrix2d>(local).singularValues();
-    if (!(singular(1) > 0.0) || !std::isfinite(singular(0))) continue;
-    const double noise = 1.0 + gain * (singular(0) / singular(1) - 1.0);
+    const auto stretch = localStretch(H, pixel);
+    if (!stretch) continue;
+    const double noise = 1.0 + gain * (*stretch - 1.0);
     squares += noise * noise;
     ++counted;
   }
   return counted > 0 ? std::sqrt(squares / counted) : 1.0;
+}
+
+double matchChanceScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double decay) {
+  if (decay == 0.0) return 1.0;
+  double sum = 0.0;
+  int counted = 0;
+  for (const Eigen::Vector2d& pixel : pixels) {
+    const auto stretch = localStretch(H, pixel);
+    if (!stretch) continue;
+    sum += std::exp(-decay * (*stretch - 1.0));
+    ++counted;
+  }
+  return counted > 0 ? sum / counted : 1.0;
 }
 
 void RouteAuditOptions::validate() const {
@@ -159,6 +185,9 @@ void RouteAuditOptions::validate() const {
   }
   if (!(stretch_noise_gain >= 0.0 && stretch_noise_gain <= 10.0)) {
     throw std::invalid_argument("route audit: stretch_noise_gain must be in [0, 10]");
+  }
+  if (!(match_stretch_decay >= 0.0 && match_stretch_decay <= 10.0)) {
+    throw std::invalid_argument("route audit: match_stretch_decay must be in [0, 10]");
   }
   if (same_place_keyframes < 1) throw std::invalid_argument("route audit: same_place_keyframes must be >= 1");
   if (min_plane_features < 0 || min_lines < 0) {
@@ -200,6 +229,13 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   RouteAudit audit;
   bool every_plane = true;
   for (const RouteKeyframe& keyframe : route.keyframes) every_plane = every_plane && keyframe.plane.has_value();
+  // Every keyframe's stored features: what its image offers as a current image.
+  std::vector<ImageFeatures> stored;
+  for (int k = 0; k < n; ++k) {
+    auto features = loadKeyframeFeatures(route, static_cast<std::size_t>(k));
+    if (!features) return features.status();
+    stored.push_back(std::move(*features));
+  }
   std::vector<KeyframeReference> references;
   if (every_plane) {
     auto store = KeyframeStore::load(route, points_options);
@@ -210,9 +246,7 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
                           "the planes' own uncertainty is not measured");
     for (int k = 0; k < n; ++k) {
       KeyframeReference reference;
-      auto features = loadKeyframeFeatures(route, static_cast<std::size_t>(k));
-      if (!features) return features.status();
-      reference.features = std::move(*features);
+      reference.features = stored[static_cast<std::size_t>(k)];
       reference.plane = route.keyframes[static_cast<std::size_t>(k)].plane;
       reference.base_pose = route.keyframes[static_cast<std::size_t>(k)].pose;
       references.push_back(std::move(reference));
@@ -240,9 +274,16 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   // neighbour's (one that sees at least min_inliers of them). Where the teach run turned in place
   // the neighbour sees only a corner of this keyframe's wall, and its inliers over all the plane
   // features would say the wall matches badly where only few features were in view.
+  // It matched them at its own view's stretch (match_stretch_decay): the keyframe's own part is
+  // the fraction over the neighbour's chance scale, and the better neighbour is the one whose
+  // own part is larger. Only a neighbour whose camera stood elsewhere (kSameViewpointM) counts:
+  // one turned in place sees the same picture re-projected and matches more of it than any view
+  // from elsewhere (docs/route_audit.md: in the room 92-95 % against 65-84 %).
   struct NeighbourPart {
     double fraction = -1.0;  // inliers / in_view; -1: no neighbour sees min_inliers of them
     int in_view = -1;
+    double match_chance_scale = 1.0;  // matchChanceScale of the neighbour's view
+    double unstretched() const { return fraction / match_chance_scale; }
   };
   std::vector<NeighbourPart> neighbour_part(static_cast<std::size_t>(n));
   std::vector<Residual> residuals(static_cast<std::size_t>(n));
@@ -251,16 +292,25 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     const auto i = static_cast<std::size_t>(k);
     for (const int neighbour : {k - 1, k + 1}) {
       if (neighbour < 0 || neighbour >= n) continue;
+      // The neighbour's image as the repeat sees a current image: all its features against this
+      // keyframe's plane features (the neighbour's own plane features would count only what both
+      // keyframes kept on their planes).
       const Relocalization found =
-          relocalize(references[static_cast<std::size_t>(neighbour)], references[i].features, camera, mount, options.repeat);
+          relocalize(references[i], stored[static_cast<std::size_t>(neighbour)], camera, mount, options.repeat);
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
-      if (references[i].plane) {
-        const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
-        const Eigen::Matrix3d H = planeInducedHomography(camera, mount.baseToCamera(relative), *references[i].plane);
-        const int in_view = static_cast<int>(planeFeaturesInView(references[i], camera, H).size());
-        const double fraction = static_cast<double>(found.inliers) / std::max(in_view, 1);
-        if (in_view >= options.repeat.min_inliers && fraction > neighbour_part[i].fraction) {
-          neighbour_part[i] = NeighbourPart{fraction, in_view};
+      const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
+      const PlanarPose camera_relative = mount.baseToCamera(relative);
+      const bool elsewhere = std::hypot(camera_relative.x, camera_relative.z) >= kSameViewpointM;
+      if (references[i].plane && elsewhere) {
+        const Eigen::Matrix3d H = planeInducedHomography(camera, camera_relative, *references[i].plane);
+        std::vector<Eigen::Vector2d> seen;  // this keyframe's pixels of its plane features in the neighbour's view
+        for (const PointMatch& match : planeFeaturesInView(references[i], camera, H)) seen.push_back(match.reference);
+        const int in_view = static_cast<int>(seen.size());
+        const NeighbourPart part{static_cast<double>(found.inliers) / std::max(in_view, 1), in_view,
+                                 matchChanceScale(H, seen, options.match_stretch_decay)};
+        if (in_view >= options.repeat.min_inliers &&
+            (neighbour_part[i].fraction < 0.0 || part.unstretched() > neighbour_part[i].unstretched())) {
+          neighbour_part[i] = part;
         }
       }
       const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
@@ -269,14 +319,25 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
     }
   }
 
+  // Where no neighbour stood elsewhere (every keyframe around it turned in place), the route's
+  // own part: the median over the keyframes that have one, unstretched.
+  std::vector<double> route_parts;
+  for (const NeighbourPart& part : neighbour_part) {
+    if (part.fraction >= 0.0) route_parts.push_back(part.unstretched());
+  }
+  std::optional<double> route_part;
+  if (!route_parts.empty()) {
+    std::nth_element(route_parts.begin(), route_parts.begin() + static_cast<std::ptrdiff_t>(route_parts.size() / 2),
+                     route_parts.end());
+    route_part = route_parts[route_parts.size() / 2];
+  }
+
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = references[static_cast<std::size_t>(k)];
     KeyframeAudit a;
     a.keyframe = k;
     a.pose = route.keyframes[static_cast<std::size_t>(k)].pose;
-    auto stored = loadKeyframeFeatures(route, static_cast<std::size_t>(k));
-    if (!stored) return stored.status();
-    a.features = static_cast<int>(stored->keypoints.size());
+    a.features = static_cast<int>(stored[static_cast<std::size_t>(k)].keypoints.size());
     a.has_plane = reference.plane.has_value();
     a.plane_features = a.has_plane ? static_cast<int>(reference.features.keypoints.size()) : 0;
     a.lines = static_cast<int>(lines->at(k).lines.size());
@@ -297,17 +358,24 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
         a.predicted_matches = predicted->matches;
         a.stretch_noise_scale = predicted->stretch_noise_scale;
         // The fix sees predicted_matches plane features but matches only part of them (the
-        // descriptors of a view from elsewhere): as large a part as the neighbour matched. The
+        // descriptors of a view from elsewhere): as large a part as the neighbour matched, less
+        // for how much more the probe's view stretches them than the neighbour's did. The
         // covariance of n matches goes as 1/n (docs/route_audit.md: the simulator's room, fixes
         // 0.3 m off the path kept 17-78 % of the features in view).
         const NeighbourPart& part = neighbour_part[static_cast<std::size_t>(k)];
         a.neighbour_plane_features_in_view = part.in_view;
-        const double fraction = part.fraction;
-        a.expected_match_fraction =
-            fraction >= 0.0 ? std::min(1.0, fraction)
-            : a.neighbour_inliers >= 0 && a.plane_features > 0
-                ? std::min(1.0, static_cast<double>(a.neighbour_inliers) / a.plane_features)
-                : 1.0;
+        a.neighbour_match_fraction = part.fraction;
+        if (part.fraction >= 0.0) {
+          a.match_stretch_scale = predicted->match_chance_scale / part.match_chance_scale;
+          a.expected_match_fraction = std::min(1.0, part.fraction * a.match_stretch_scale);
+        } else if (route_part) {
+          a.match_stretch_scale = predicted->match_chance_scale;
+          a.expected_match_fraction = std::min(1.0, *route_part * a.match_stretch_scale);
+        } else {
+          a.expected_match_fraction = a.neighbour_inliers >= 0 && a.plane_features > 0
+                                          ? std::min(1.0, static_cast<double>(a.neighbour_inliers) / a.plane_features)
+                                          : 1.0;
+        }
         const double expected_matches = a.expected_match_fraction * a.predicted_matches;
         if (expected_matches < options.repeat.min_inliers) {
           a.prediction_problem = format("about %.0f of the %.0f plane features in view would match (min_inliers %.0f)",

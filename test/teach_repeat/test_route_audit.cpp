@@ -170,6 +170,7 @@ TEST_F(RouteAuditTest, ThePlanesDisagreementEntersThePredictionOnlyWhereTheRepea
 TEST_F(RouteAuditTest, ThePredictionCountsTheMatchesANeighbourFinds) {
   RouteAuditOptions options;
   options.aliasing = false;  // the neighbour is matched all the same
+  options.match_stretch_decay = 0.0;  // the neighbour's part as it matched it (the stretch: below)
   const auto audit = auditRoute(route(), options);
   ASSERT_TRUE(audit.isOk()) << audit.status().toString();
   for (const KeyframeAudit& a : audit->keyframes) {
@@ -199,6 +200,7 @@ TEST_F(RouteAuditTest, TheNeighboursPartIsOverThePlaneFeaturesItSees) {
   RouteAuditOptions options;
   options.aliasing = false;
   options.repeat.plane_feature_tolerance_px = 0.0;  // every keyframe's features all, whatever the poses
+  options.match_stretch_decay = 0.0;  // the turned view's stretch aside (below)
   const auto plain = auditRoute(route(), options);
   Route turned = route();
   turned.keyframes[1].pose.yaw += 0.3;
@@ -322,6 +324,58 @@ TEST(MatchStretchNoiseScale, GrowsWithTheStretchOfTheLocalMap) {
   }
   EXPECT_NEAR(matchStretchNoiseScale(perspective, pixels, 2.0), std::sqrt(squares), 1e-9);
   EXPECT_GT(matchStretchNoiseScale(perspective, pixels, 2.0), 1.5);
+}
+
+// A view that stretches nothing leaves a feature's chance to match as it is (1); one that
+// stretches its patch 1.2 times makes it exp(−decay · 0.2); the scale is the mean over the pixels.
+TEST(MatchChanceScale, FallsWithTheStretchOfTheLocalMap) {
+  const std::vector<Eigen::Vector2d> pixels = {{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}};
+  Eigen::Matrix3d similarity;
+  similarity << 0.9 * std::cos(0.3), -0.9 * std::sin(0.3), 12.0, 0.9 * std::sin(0.3), 0.9 * std::cos(0.3), -7.0, 0.0, 0.0, 1.0;
+  EXPECT_NEAR(matchChanceScale(similarity, pixels, 1.8), 1.0, 1e-12);
+  const Eigen::Matrix3d stretched = Eigen::Vector3d(1.0, 1.2, 1.0).asDiagonal();
+  EXPECT_NEAR(matchChanceScale(stretched, pixels, 1.8), std::exp(-1.8 * 0.2), 1e-12);
+  EXPECT_EQ(matchChanceScale(stretched, pixels, 0.0), 1.0);
+  EXPECT_EQ(matchChanceScale(stretched, {}, 1.8), 1.0);
+  Eigen::Matrix3d perspective;
+  perspective << 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.001, 0.0, 1.0;
+  double mean = 0.0;
+  for (const Eigen::Vector2d& x : pixels) mean += std::exp(-1.8 * (*localStretch(perspective, x) - 1.0)) / 3.0;
+  EXPECT_NEAR(matchChanceScale(perspective, pixels, 1.8), mean, 1e-12);
+  EXPECT_LT(matchChanceScale(perspective, pixels, 1.8), 0.8);
+}
+
+// A probe further to the side sees the wall more obliquely than the neighbours along it did, so it
+// is expected to match a smaller part of what it sees: the neighbour's part times how much rarer a
+// match is at the probe's stretch than at the neighbour's (match_stretch_scale). Decay 0: the
+// neighbour's part as it is; a decay outside [0, 10] is refused naming it.
+TEST_F(RouteAuditTest, AProbeThatStretchesTheFeaturesMoreIsExpectedToMatchLess) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.match_stretch_decay = 0.0;
+  const auto unmodelled = auditRoute(route(), options);
+  options.match_stretch_decay = 1.8;
+  const auto near = auditRoute(route(), options);
+  options.probe_offset_m = 1.0;
+  const auto far = auditRoute(route(), options);
+  ASSERT_TRUE(unmodelled.isOk() && near.isOk() && far.isOk());
+  for (std::size_t k = 0; k < near->keyframes.size(); ++k) {
+    const KeyframeAudit& plain = unmodelled->keyframes[k];
+    const KeyframeAudit& a = near->keyframes[k];
+    const KeyframeAudit& b = far->keyframes[k];
+    EXPECT_EQ(plain.match_stretch_scale, 1.0);
+    EXPECT_GT(a.match_stretch_scale, 0.8) << k;  // 0.3 m beside a keyframe facing its wall: little stretch
+    EXPECT_LT(b.match_stretch_scale, a.match_stretch_scale) << k;
+    EXPECT_NEAR(plain.expected_match_fraction, std::min(1.0, plain.neighbour_match_fraction), 1e-12) << k;
+    EXPECT_NEAR(a.expected_match_fraction, std::min(1.0, a.neighbour_match_fraction * a.match_stretch_scale), 1e-12) << k;
+    EXPECT_LT(b.expected_match_fraction, a.expected_match_fraction) << k;
+  }
+  for (const double bad : {-0.1, 10.5, std::nan("")}) {
+    options.match_stretch_decay = bad;
+    const auto refused = auditRoute(route(), options);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_NE(refused.status().message().find("match_stretch_decay"), std::string::npos);
+  }
 }
 
 // The stretch gain scales the pixel noise's part of the prediction by the square of the probe's

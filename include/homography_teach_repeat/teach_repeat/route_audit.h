@@ -48,6 +48,12 @@ struct RouteAuditOptions {
   // prediction's pixel σ by the probe's stretch, and takes the neighbours' own stretch out of
   // their residual (docs/route_audit.md: 2, measured in the simulator's room).
   double stretch_noise_gain = 2.0;
+  // How much rarer a match is where the other view stretches its keypoint: a plane feature matches
+  // with a chance exp(−λ (a − 1)) times its keyframe's own (matchChanceScale), λ this decay [0-10;
+  // 0: not modelled]. The neighbours match at their stretch, the probe at its own, so the part the
+  // probe is expected to match is the neighbour's times the ratio of the two (docs/route_audit.md:
+  // 1.7-1.8, measured in the simulator's room, where a stretch of 1.35 halves the matches).
+  double match_stretch_decay = 1.8;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -72,15 +78,24 @@ struct KeyframeAudit {
   // predicted_covariance.
   std::optional<Eigen::Matrix3d> predicted_fix_to_fix_covariance;
   int predicted_matches = 0;             // the plane features that fix sees
-  // Of those, the part it matches: the better neighbour's inliers over the plane features in its
-  // view (neighbour_plane_features_in_view; -1 where no neighbour sees min_inliers of them, and
-  // then neighbour_inliers / plane_features).
+  // Of those, the part it matches: the better neighbour's part (its image's features matched to
+  // this keyframe as the repeat matches a current image: the inliers over this keyframe's plane
+  // features in that neighbour's view, neighbour_plane_features_in_view), times
+  // match_stretch_scale. Only a neighbour whose camera stood elsewhere (not turned in place) and
+  // that sees min_inliers of them counts; with none (-1), the route's median part over the
+  // stretch of its neighbours' views times the probe's chance scale, and on a route where no
+  // keyframe has one, neighbour_inliers / plane_features.
   double expected_match_fraction = 1.0;
   int neighbour_plane_features_in_view = -1;
+  double neighbour_match_fraction = -1.0;  // that neighbour's inliers over them; -1 as above
+  // How much less likely a feature is to match from the probe than from that neighbour, for how
+  // much more each view stretches the features it sees (matchChanceScale of the probe's over the
+  // neighbour's, match_stretch_decay; with the route's part, the probe's alone; 1: not modelled).
+  double match_stretch_scale = 1.0;
   std::string prediction_problem;
   int lines = 0;
   int line_landmarks = 0;
-  int neighbour_inliers = -1;  // the better of the previous and the next keyframe against it; -1: a route of one keyframe
+  int neighbour_inliers = -1;  // the better of the previous and the next keyframe's image matched to it; -1: a route of one keyframe
   double pixel_noise_scale = 1.0;  // the keyframe's pixel σ over the configured one (pixel_noise_from_neighbours)
   // The probe's pixel σ over the keyframe's: its view stretches the keyframe's plane features
   // (matchStretchNoiseScale with stretch_noise_gain; 1: not at all, or not modelled). The
@@ -106,6 +121,15 @@ struct RouteAudit {
 // stretch a = s1/s2 (its singular values; 1 for a similarity), the noise 1 + gain (a − 1); the
 // root mean square over the pixels (the estimator takes one σ). 1 for no pixel or gain 0.
 double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain);
+
+// The stretch a = s1/s2 ≥ 1 of H's local map at a reference pixel (the singular values of its 2x2
+// Jacobian there; 1 for a similarity); nullopt where H sends the pixel to infinity.
+std::optional<double> localStretch(const Eigen::Matrix3d& H, const Eigen::Vector2d& pixel);
+
+// The chance that a feature at one of `pixels` matches, over its chance in an unstretched view,
+// averaged over the pixels: exp(−decay (a − 1)), a the local stretch of H there (localStretch).
+// 1 for no pixel or decay 0.
+double matchChanceScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double decay);
 
 // kInvalidInput for invalid options, a route without keyframes, or a corrupt keyframe file.
 Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options);

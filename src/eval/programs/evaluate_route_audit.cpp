@@ -36,7 +36,8 @@
 // that and how much its coefficients vary from fix to fix). `--images warped` localizes the
 // keyframe's own image moved by its plane's homography to each fix's pose instead of a rendered one
 // (the detector's answer to a change of view alone; the rendered images are still drawn, so a seed
-// gives the same poses). `--inliers-out` writes every fix's inliers with their true positions (CSV).
+// gives the same poses). `--inliers-out` writes every fix's inliers with their true positions (CSV),
+// `--features-out` every keyframe plane feature per fix that its wall shows: where, the view's stretch of it, kept.
 // The simulator knows where every inlier truly is: each keyframe pixel's ray meets a wall, which
 // projects into the image's camera. The RMS of the inliers' distance from there (per coordinate,
 // pooled over the route) is printed and written; `--pixel-sigma measure` makes it / √2 the
@@ -58,6 +59,7 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "homography_teach_repeat/common/command_line.h"
@@ -66,6 +68,7 @@
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/world_renderer.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 
@@ -154,16 +157,18 @@ int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
-                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"plots", "1"},
-                       {"images", "rendered"}, {"inliers-out", ""}, {"supersampling", "1"}},
+                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"plots", "1"},
+                       {"images", "rendered"}, {"inliers-out", ""}, {"features-out", ""}, {"supersampling", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] [--supersampling K] (the simulator's camera) [--seed S]\n"
                       "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's)\n"
                       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
                       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]\n"
+                      "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
                       "  [--images rendered|warped] (warped: the keyframe's own image moved by its plane's homography)\n"
-                      "  [--inliers-out FILE] (every fix's inliers and their true positions, CSV)");
+                      "  [--inliers-out FILE] (every fix's inliers and their true positions, CSV)\n"
+                      "  [--features-out FILE] (every fix's keyframe plane features: true position, stretch, matched; CSV)");
   args.parse(argc, argv);
   for (const char* required : {"world", "route", "out"}) {
     if (args.text(required).empty()) args.fail(std::string("--") + required + " is required");
@@ -199,6 +204,7 @@ int main(int argc, char** argv) {
     audit_options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
     audit_options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
     audit_options.stretch_noise_gain = args.number("stretch-noise-gain");
+    audit_options.match_stretch_decay = args.number("match-stretch-decay");
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
     if (warped_images && camera.hasDistortion()) {
       throw std::runtime_error("--images warped needs a camera without distortion (the warp is the pinhole's homography)");
@@ -209,6 +215,13 @@ int main(int argc, char** argv) {
       if (!inliers_out) throw std::runtime_error("cannot write " + args.text("inliers-out"));
       inliers_out << std::setprecision(10) << "keyframe,fix,reference_u,reference_v,current_u,current_v,true_u,true_v,offset_along_m,"
                      "offset_across_m,offset_yaw_rad\n";
+    }
+    std::ofstream features_out;
+    if (!args.text("features-out").empty()) {
+      if (camera.hasDistortion()) throw std::runtime_error("--features-out needs a camera without distortion");
+      features_out.open(args.text("features-out"));
+      if (!features_out) throw std::runtime_error("cannot write " + args.text("features-out"));
+      features_out << std::setprecision(10) << "keyframe,fix,reference_u,reference_v,size,true_u,true_v,stretch,inlier\n";
     }
     if (measure_pixel_sigma && camera.hasDistortion()) {
       throw std::runtime_error("--pixel-sigma measure needs a camera without distortion (the true transfer is the pinhole's)");
@@ -222,6 +235,12 @@ int main(int argc, char** argv) {
     repeat.max_tracked_frames = 0;
     auto localizer = RepeatLocalizer::create(*route, repeat);
     if (!localizer) throw std::runtime_error(localizer.status().message());
+    std::optional<KeyframeStore> plane_features;  // what the localizer matches (--features-out)
+    if (features_out.is_open()) {
+      auto store = KeyframeStore::load(*route, repeat);
+      if (!store) throw std::runtime_error(store.status().message());
+      plane_features.emplace(std::move(*store));
+    }
     // The robot whose camera is `offset` to the right of the keyframe's (as the audit's probe).
     const Pose2D probe = mount.cameraToBase(PlanarPose(audit_options.probe_offset_m, 0.0, 0.0));
 
@@ -298,6 +317,22 @@ int main(int argc, char** argv) {
         f.inlier_truths.emplace_back();
         ++f.localized;
         if (camera.hasDistortion()) continue;
+        if (features_out.is_open()) {
+          // Which of the keyframe's plane features this camera truly sees, how much its view
+          // stretches each (through the keyframe's plane), and whether the fix kept it.
+          std::set<std::pair<double, double>> kept;
+          for (const PointMatch& match : estimate->inlier_matches) kept.insert({match.reference.x(), match.reference.y()});
+          const Eigen::Matrix3d H = planeInducedHomography(
+              camera, mount.baseToCamera(keyframe.pose.inverse().compose(truth)), *keyframe.plane);
+          for (const cv::KeyPoint& keypoint : plane_features->at(static_cast<int>(index)).features.keypoints) {
+            const Eigen::Vector2d pixel(keypoint.pt.x, keypoint.pt.y);
+            const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, pixel);
+            if (!truly) continue;  // hidden, or off its wall
+            features_out << index << ',' << f.localized - 1 << ',' << pixel.x() << ',' << pixel.y() << ',' << keypoint.size
+                         << ',' << truly->x() << ',' << truly->y() << ',' << localStretch(H, pixel).value_or(NAN) << ','
+                         << kept.count({pixel.x(), pixel.y()}) << '\n';
+          }
+        }
         for (const PointMatch& match : estimate->inlier_matches) {
           const auto truly = trueTransfer(*world, camera, render.camera_height, keyframe_camera, camera_pose, match.reference);
           if (truly) f.inlier_truths.back().push_back({match, *truly});
@@ -432,7 +467,8 @@ int main(int argc, char** argv) {
                          {"supersampling", render.supersampling}, {"images", args.text("images")},
                          {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours},
                          {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours},
-                         {"stretch_noise_gain", audit_options.stretch_noise_gain}};
+                         {"stretch_noise_gain", audit_options.stretch_noise_gain},
+                         {"match_stretch_decay", audit_options.match_stretch_decay}};
     std::vector<double> log_predicted[3], log_measured[3], log_predicted_spread[3], log_measured_spread[3];
     int within = 0, compared = 0, spread_within = 0;  // each over `compared` ratios
     // The bias of each keyframe's fixes (their mean error) over the σ the model gives it (the shared
@@ -442,6 +478,9 @@ int main(int argc, char** argv) {
     int part_within[kErrorParts] = {0, 0, 0}, part_compared[kErrorParts] = {0, 0, 0};
     double bias_z_squares = 0.0;
     std::vector<std::pair<double, int>> affine_share_ratios;  // (share over the independent errors' share, keyframe)
+    // The part of the plane features in view a fix was expected to match, and the part its fixes
+    // matched (their mean inliers over the features the probe sees), per keyframe.
+    std::vector<double> expected_parts, matched_parts;
     std::printf("%4s %8s %8s | %22s | %22s | %s\n", "kf", "x [m]", "y [m]", "predicted sigma", "measured rms",
                 "ratio measured/predicted (along, across, heading) | the same of the spread from fix to fix");
     for (const KeyframeAudit& a : audit->keyframes) {
@@ -450,12 +489,19 @@ int main(int argc, char** argv) {
                           {"stretch_noise_scale", a.stretch_noise_scale},
                           {"predicted_matches", a.predicted_matches},
                           {"expected_match_fraction", a.expected_match_fraction},
-                          {"neighbour_plane_features_in_view", a.neighbour_plane_features_in_view}};
+                          {"neighbour_plane_features_in_view", a.neighbour_plane_features_in_view},
+                          {"neighbour_match_fraction", a.neighbour_match_fraction},
+                          {"match_stretch_scale", a.match_stretch_scale}};
       const Fixes& f = fixes[static_cast<std::size_t>(a.keyframe)];
       k["localized"] = f.localized;
       if (f.localized > 0) {
-        k["inliers_mean"] =
+        const double inliers_mean =
             static_cast<double>(std::accumulate(f.inliers_per_fix.begin(), f.inliers_per_fix.end(), 0L)) / f.localized;
+        k["inliers_mean"] = inliers_mean;
+        if (a.predicted_covariance && a.predicted_matches > 0) {
+          expected_parts.push_back(a.expected_match_fraction);
+          matched_parts.push_back(inliers_mean / a.predicted_matches);
+        }
       }
       // Every fix: where its image was taken relative to the probe (along, across, yaw), its error, its inliers.
       for (std::size_t i = 0; i < f.errors.size(); ++i) {
@@ -574,6 +620,24 @@ int main(int argc, char** argv) {
       }
       std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2), ratios.end());
       summary["current_part_affine_share_ratio_median"] = ratios[ratios.size() / 2];
+    }
+    if (!expected_parts.empty()) {
+      std::vector<double> part_ratios;
+      int parts_within = 0;
+      for (std::size_t i = 0; i < expected_parts.size(); ++i) {
+        part_ratios.push_back(expected_parts[i] / matched_parts[i]);
+        parts_within += part_ratios.back() >= 1.0 / 1.5 && part_ratios.back() <= 1.5 ? 1 : 0;
+      }
+      std::nth_element(part_ratios.begin(), part_ratios.begin() + static_cast<std::ptrdiff_t>(part_ratios.size() / 2),
+                       part_ratios.end());
+      summary["matched_part"] = {{"compared", expected_parts.size()},
+                                 {"expected_over_matched_median", part_ratios[part_ratios.size() / 2]},
+                                 {"within_factor_1_5", parts_within},
+                                 {"correlation", correlation(expected_parts, matched_parts)}};
+      std::printf("the part of the plane features in view a fix matches: expected over the fixes' a median %.2f, within "
+                  "a factor of 1.5 at %d of %zu keyframes, correlation %.2f\n",
+                  part_ratios[part_ratios.size() / 2], parts_within, expected_parts.size(),
+                  summary["matched_part"]["correlation"].get<double>());
     }
     document["summary"] = summary;
     std::printf("%d of %d ratios within a factor of 2; correlation of log sigma predicted vs measured: along %.2f, "

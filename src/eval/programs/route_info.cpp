@@ -50,6 +50,8 @@ nlohmann::json toJson(const KeyframeAudit& a) {
     k["predicted_matches"] = a.predicted_matches;
     k["expected_match_fraction"] = a.expected_match_fraction;
     k["neighbour_plane_features_in_view"] = a.neighbour_plane_features_in_view;
+    k["neighbour_match_fraction"] = a.neighbour_match_fraction;
+    k["match_stretch_scale"] = a.match_stretch_scale;
   } else {
     k["predicted_sigma"] = nullptr;
     k["prediction_problem"] = a.prediction_problem;
@@ -64,7 +66,7 @@ int main(int argc, char** argv) {
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", "0.35"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
-       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
@@ -75,6 +77,7 @@ int main(int argc, char** argv) {
       "  parameters)\n"
       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off)\n"
+      "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
       "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
       "  [--min-lines N] (what makes a keyframe weak)\n"
       "  [--plots 0|1]");
@@ -102,6 +105,7 @@ int main(int argc, char** argv) {
   options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
   options.stretch_noise_gain = args.number("stretch-noise-gain");
+  options.match_stretch_decay = args.number("match-stretch-decay");
   options.min_plane_features = args.integer("min-plane-features");
   options.max_position_sigma_m = args.number("max-position-sigma");
   options.max_heading_sigma_rad = args.number("max-heading-sigma");
