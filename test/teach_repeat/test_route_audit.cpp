@@ -5,6 +5,7 @@
 #include <Eigen/SVD>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -213,6 +214,33 @@ TEST_F(RouteAuditTest, TheNeighboursPartIsOverThePlaneFeaturesItSees) {
   EXPECT_GT(after.expected_match_fraction, before.expected_match_fraction);
   EXPECT_NEAR(after.expected_match_fraction,
               std::min(1.0, static_cast<double>(after.neighbour_inliers) / after.neighbour_plane_features_in_view), 1e-12);
+}
+
+// A neighbour whose camera stood where the keyframe's did (a turn in place) sees the same picture
+// re-projected and does not say what a view from elsewhere matches: with keyframe 1 recorded where
+// keyframe 0 was, keyframe 0 (whose only neighbour it is) takes the route's median part instead.
+TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartDoes) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.match_stretch_decay = 0.0;  // each part as matched, so the median is of the fractions reported
+  Route turned = route();
+  ASSERT_GE(turned.keyframes.size(), 4u);
+  turned.keyframes[1].pose = turned.keyframes[0].pose;
+  turned.keyframes[1].pose.yaw += 0.2;
+  const auto audit = auditRoute(turned, options);
+  ASSERT_TRUE(audit.isOk()) << audit.status().toString();
+  const KeyframeAudit& first = audit->keyframes[0];
+  EXPECT_EQ(first.neighbour_match_fraction, -1.0);
+  EXPECT_EQ(first.neighbour_plane_features_in_view, -1);
+  std::vector<double> parts;
+  for (const KeyframeAudit& a : audit->keyframes) {
+    if (a.neighbour_match_fraction >= 0.0) parts.push_back(a.neighbour_match_fraction);
+  }
+  ASSERT_GE(parts.size(), 2u);
+  std::nth_element(parts.begin(), parts.begin() + static_cast<std::ptrdiff_t>(parts.size() / 2), parts.end());
+  EXPECT_NEAR(first.expected_match_fraction, std::min(1.0, parts[parts.size() / 2]), 1e-12);
+  // Further along, the neighbours stood elsewhere and count.
+  EXPECT_GE(audit->keyframes[3].neighbour_match_fraction, 0.0);
 }
 
 // Of a predicted fix, the current image's pixel noise differs from one fix to the next at a
