@@ -151,31 +151,38 @@ std::optional<double> localStretch(const Eigen::Matrix3d& H, const Eigen::Vector
   return singular(0) / singular(1);
 }
 
-double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain) {
-  if (gain == 0.0) return 1.0;
-  double squares = 0.0;
-  int counted = 0;
-  for (const Eigen::Vector2d& pixel : pixels) {
-    const auto stretch = localStretch(H, pixel);
-    if (!stretch) continue;
-    const double noise = 1.0 + gain * (*stretch - 1.0);
-    squares += noise * noise;
-    ++counted;
-  }
-  return counted > 0 ? std::sqrt(squares / counted) : 1.0;
-}
+namespace {
 
-double matchChanceScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double decay) {
-  if (decay == 0.0) return 1.0;
+// The mean of `of`(a) over the pixels where H's local stretch a is defined; nullopt for none.
+template <typename Function>
+std::optional<double> meanOverStretch(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels,
+                                      Function of) {
   double sum = 0.0;
   int counted = 0;
   for (const Eigen::Vector2d& pixel : pixels) {
     const auto stretch = localStretch(H, pixel);
     if (!stretch) continue;
-    sum += std::exp(-decay * (*stretch - 1.0));
+    sum += of(*stretch);
     ++counted;
   }
-  return counted > 0 ? sum / counted : 1.0;
+  if (counted == 0) return std::nullopt;
+  return sum / counted;
+}
+
+}  // namespace
+
+double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain) {
+  if (gain == 0.0) return 1.0;
+  const auto mean_square = meanOverStretch(H, pixels, [gain](double a) {
+    const double noise = 1.0 + gain * (a - 1.0);
+    return noise * noise;
+  });
+  return mean_square ? std::sqrt(*mean_square) : 1.0;
+}
+
+double matchChanceScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double decay) {
+  if (decay == 0.0) return 1.0;
+  return meanOverStretch(H, pixels, [decay](double a) { return std::exp(-decay * (a - 1.0)); }).value_or(1.0);
 }
 
 void RouteAuditOptions::validate() const {

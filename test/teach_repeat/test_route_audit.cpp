@@ -31,6 +31,22 @@ std::string copyRouteDirectory(const Route& route, const char* name) {
   return copy;
 }
 
+// Pixels across the image, and two views of them for the stretch tests: a similarity (rotated by
+// 0.3 rad, scaled by 0.9, shifted), which stretches nothing, and a wall turned away (perspective).
+const std::vector<Eigen::Vector2d> kStretchProbePixels = {{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}};
+
+Eigen::Matrix3d rotatedScaledShifted() {
+  Eigen::Matrix3d similarity;
+  similarity << 0.9 * std::cos(0.3), -0.9 * std::sin(0.3), 12.0, 0.9 * std::sin(0.3), 0.9 * std::cos(0.3), -7.0, 0.0, 0.0, 1.0;
+  return similarity;
+}
+
+Eigen::Matrix3d wallTurnedAway() {
+  Eigen::Matrix3d perspective;
+  perspective << 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.001, 0.0, 1.0;
+  return perspective;
+}
+
 }  // namespace
 
 TEST_F(RouteAuditTest, AWellTexturedWallGivesEveryKeyframeAPredictedFixAndNoAlias) {
@@ -328,9 +344,8 @@ TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
 // keypoint's patch 1.2 times across gives 1 + gain · 0.2 there; the scale is the RMS over the
 // pixels, and a perspective homography stretches its pixels differently.
 TEST(MatchStretchNoiseScale, GrowsWithTheStretchOfTheLocalMap) {
-  const std::vector<Eigen::Vector2d> pixels = {{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}};
-  Eigen::Matrix3d similarity;
-  similarity << 0.9 * std::cos(0.3), -0.9 * std::sin(0.3), 12.0, 0.9 * std::sin(0.3), 0.9 * std::cos(0.3), -7.0, 0.0, 0.0, 1.0;
+  const std::vector<Eigen::Vector2d>& pixels = kStretchProbePixels;
+  const Eigen::Matrix3d similarity = rotatedScaledShifted();
   EXPECT_NEAR(matchStretchNoiseScale(similarity, pixels, 2.0), 1.0, 1e-12);
   const Eigen::Matrix3d stretched = Eigen::Vector3d(1.2, 1.0, 1.0).asDiagonal();
   EXPECT_NEAR(matchStretchNoiseScale(stretched, pixels, 2.0), 1.4, 1e-12);
@@ -338,8 +353,7 @@ TEST(MatchStretchNoiseScale, GrowsWithTheStretchOfTheLocalMap) {
   EXPECT_EQ(matchStretchNoiseScale(stretched, pixels, 0.0), 1.0);
   EXPECT_EQ(matchStretchNoiseScale(stretched, {}, 2.0), 1.0);
   // A wall turned away: the local map at each pixel is the homography's Jacobian there.
-  Eigen::Matrix3d perspective;
-  perspective << 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.001, 0.0, 1.0;
+  const Eigen::Matrix3d perspective = wallTurnedAway();
   double squares = 0.0;
   for (const Eigen::Vector2d& x : pixels) {
     const double w = 1.0 + 0.001 * x.x();
@@ -357,16 +371,14 @@ TEST(MatchStretchNoiseScale, GrowsWithTheStretchOfTheLocalMap) {
 // A view that stretches nothing leaves a feature's chance to match as it is (1); one that
 // stretches its patch 1.2 times makes it exp(−decay · 0.2); the scale is the mean over the pixels.
 TEST(MatchChanceScale, FallsWithTheStretchOfTheLocalMap) {
-  const std::vector<Eigen::Vector2d> pixels = {{100.0, 50.0}, {320.0, 240.0}, {600.0, 400.0}};
-  Eigen::Matrix3d similarity;
-  similarity << 0.9 * std::cos(0.3), -0.9 * std::sin(0.3), 12.0, 0.9 * std::sin(0.3), 0.9 * std::cos(0.3), -7.0, 0.0, 0.0, 1.0;
+  const std::vector<Eigen::Vector2d>& pixels = kStretchProbePixels;
+  const Eigen::Matrix3d similarity = rotatedScaledShifted();
   EXPECT_NEAR(matchChanceScale(similarity, pixels, 1.8), 1.0, 1e-12);
   const Eigen::Matrix3d stretched = Eigen::Vector3d(1.0, 1.2, 1.0).asDiagonal();
   EXPECT_NEAR(matchChanceScale(stretched, pixels, 1.8), std::exp(-1.8 * 0.2), 1e-12);
   EXPECT_EQ(matchChanceScale(stretched, pixels, 0.0), 1.0);
   EXPECT_EQ(matchChanceScale(stretched, {}, 1.8), 1.0);
-  Eigen::Matrix3d perspective;
-  perspective << 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.001, 0.0, 1.0;
+  const Eigen::Matrix3d perspective = wallTurnedAway();
   double mean = 0.0;
   for (const Eigen::Vector2d& x : pixels) mean += std::exp(-1.8 * (*localStretch(perspective, x) - 1.0)) / 3.0;
   EXPECT_NEAR(matchChanceScale(perspective, pixels, 1.8), mean, 1e-12);
