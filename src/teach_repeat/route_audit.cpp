@@ -263,8 +263,8 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
   // How much of each keyframe the repeat matches from a nearby view: the better of its two
   // neighbours' inliers against it (where the teach run turned in place one neighbour faces
   // another wall; also without the aliasing search). And how noisy its matches are: the inliers'
-  // residual against their homography, over both neighbours, less what the neighbour's view
-  // stretching them adds (stretch_noise_gain; docs/route_audit.md).
+  // residual against their homography, over the neighbours that stood elsewhere, less what the
+  // neighbour's view stretching them adds (stretch_noise_gain; docs/route_audit.md).
   struct Residual {
     double squares = 0.0;  // Σ inliers · (rms / stretch)²
     long inliers = 0;
@@ -320,6 +320,11 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
           neighbour_part[i] = part;
         }
       }
+      // The residual too from a neighbour that stood elsewhere only: the same picture re-projected
+      // matches closer than a view from elsewhere (docs/route_audit.md: the room's closing keyframe
+      // 32, whose one neighbour turned in place, was given 0.87 of the route's noise, its fixes had
+      // the route's). A keyframe without one keeps the route's noise (pixel_noise_scale 1).
+      if (!elsewhere) continue;
       const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
       residuals[i].add(found, stretch);
       route_residual.add(found, stretch);

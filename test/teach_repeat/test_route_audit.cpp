@@ -234,8 +234,9 @@ TEST_F(RouteAuditTest, TheNeighboursPartIsOverThePlaneFeaturesItSees) {
 
 // A neighbour whose camera stood where the keyframe's did (a turn in place) sees the same picture
 // re-projected and does not say what a view from elsewhere matches: with keyframe 1 recorded where
-// keyframe 0 was, keyframe 0 (whose only neighbour it is) takes the route's median part instead.
-TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartDoes) {
+// keyframe 0 was, keyframe 0 (whose only neighbour it is) takes the route's median part instead,
+// and the route's pixel noise (its neighbour's residual, the same picture's, would be too small).
+TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartAndNoiseDo) {
   RouteAuditOptions options;
   options.aliasing = false;
   options.match_stretch_decay = 0.0;  // each part as matched, so the median is of the fractions reported
@@ -257,6 +258,12 @@ TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartDoes) {
   EXPECT_NEAR(first.expected_match_fraction, std::min(1.0, parts[parts.size() / 2]), 1e-12);
   // Further along, the neighbours stood elsewhere and count.
   EXPECT_GE(audit->keyframes[3].neighbour_match_fraction, 0.0);
+  // Nor does its residual say keyframe 0's pixel noise: it keeps the route's, where with its
+  // neighbour taken elsewhere the residual gives it its own.
+  EXPECT_EQ(first.pixel_noise_scale, 1.0);
+  const auto plain = auditRoute(route(), options);
+  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
+  EXPECT_GT(std::abs(plain->keyframes[0].pixel_noise_scale - 1.0), 1e-3);
 }
 
 // Of a predicted fix, the current image's pixel noise differs from one fix to the next at a

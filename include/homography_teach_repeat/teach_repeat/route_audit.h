@@ -39,7 +39,8 @@ struct RouteAuditOptions {
   double alias_heading_tolerance_rad = 0.087;
   int min_lines = 10;
   // Each keyframe's pixel noise relative to the route's: the residual of its inliers against their
-  // homography when its neighbours are matched to it, over the route's (clamped to [0.5, 2]),
+  // homography when its neighbours are matched to it (those whose camera stood elsewhere; with
+  // none, 1), over the route's (clamped to [0.5, 2]),
   // scales repeat.pose.pixel_sigma_px in its prediction. A wall whose texture matches less
   // sharply gives noisier fixes (docs/route_audit.md). false: the configured σ everywhere.
   bool pixel_noise_from_neighbours = true;
