@@ -307,8 +307,13 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
       const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
       const PlanarPose camera_relative = mount.baseToCamera(relative);
-      const bool elsewhere = std::hypot(camera_relative.x, camera_relative.z) >= kSameViewpointM;
-      if (references[i].plane && elsewhere) {
+      // Its part and its residual count only if it stood elsewhere: the same picture re-projected
+      // matches more, and more closely, than a view from elsewhere (docs/route_audit.md: the room's
+      // closing keyframe 32, whose one neighbour turned in place, was given 0.87 of the route's
+      // noise where its fixes had the route's). A keyframe without one keeps the route's part
+      // (below) and noise (pixel_noise_scale 1).
+      if (std::hypot(camera_relative.x, camera_relative.z) < kSameViewpointM) continue;
+      if (references[i].plane) {
         const Eigen::Matrix3d H = planeInducedHomography(camera, camera_relative, *references[i].plane);
         std::vector<Eigen::Vector2d> seen;  // this keyframe's pixels of its plane features in the neighbour's view
         for (const PointMatch& match : planeFeaturesInView(references[i], camera, H)) seen.push_back(match.reference);
@@ -320,11 +325,6 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& opt
           neighbour_part[i] = part;
         }
       }
-      // The residual too from a neighbour that stood elsewhere only: the same picture re-projected
-      // matches closer than a view from elsewhere (docs/route_audit.md: the room's closing keyframe
-      // 32, whose one neighbour turned in place, was given 0.87 of the route's noise, its fixes had
-      // the route's). A keyframe without one keeps the route's noise (pixel_noise_scale 1).
-      if (!elsewhere) continue;
       const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
       residuals[i].add(found, stretch);
       route_residual.add(found, stretch);
