@@ -25,6 +25,7 @@
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/sim/planar_world.h"
+#include "homography_teach_repeat/sim/texture_ripmap.h"
 
 namespace homography_teach_repeat {
 
@@ -42,6 +43,11 @@ struct RenderOptions {
   // (blur_sigma, before the sensor samples it) and each pixel the mean of its k x k: a band-limited
   // image as a real camera's (docs/simulator.md, "What a pixel sees"), k² times slower.
   int supersampling = 1;
+  // true: each pixel samples the wall textures blurred to its footprint (the lens's blur_sigma and
+  // the pixel's area, a Gaussian mapped onto the wall), from a ripmap of each texture: band-limited
+  // as with supersampling, at about 3 times the cost of one sample (docs/simulator.md, "What a
+  // pixel sees"). Excludes supersampling > 1.
+  bool texture_filtering = false;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -69,8 +75,11 @@ class WorldRenderer {
   // One ray per pixel (row-major) in the level optical frame, when the lens distorts or the mount
   // tilts; empty for the ideal level pinhole, which is rendered column by column.
   std::vector<Eigen::Vector3d> pixel_rays_;
+  Eigen::Matrix3d level_from_camera_ = Eigen::Matrix3d::Identity();  // the tilted camera's rays to the level one's
   // With supersampling k > 1: the same camera at k times the resolution, whose samples render() averages.
   std::shared_ptr<const WorldRenderer> fine_;
+  // With texture_filtering: the ripmaps of the walls' textures, built when first seen.
+  std::shared_ptr<TextureRipmapCache> ripmaps_ = std::make_shared<TextureRipmapCache>();
 
   // The scene's colour at each pixel, one sample per pixel (before blur and noise).
   cv::Mat renderSamples(const PlanarWorld& world, const Pose2D& camera_pose, double gain) const;

@@ -140,6 +140,7 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   render.noise_sigma = readParameter(p, "image_noise_sigma", render.noise_sigma);
   render.blur_sigma = readParameter(p, "image_blur_sigma", render.blur_sigma);
   render.supersampling = readParameter(p, "image_supersampling", render.supersampling);
+  render.texture_filtering = readParameter(p, "image_texture_filtering", render.texture_filtering);
   render.camera_pitch = readParameter(p, "camera_pitch", render.camera_pitch);
   render.camera_roll = readParameter(p, "camera_roll", render.camera_roll);
   render.exposure_time = readParameter(p, "exposure_time", render.exposure_time);
