@@ -12,8 +12,9 @@
 // not level (pitch and roll of base_link, REP-103), lamps along the walls (a brightness that
 // varies along each wall), and motion blur from the robot's turning during the exposure. Any of
 // the first two switches from the per-column renderer to one ray per pixel (slower, same model).
-// A pixel integrates the light over its area through a lens that blurs: with supersampling the
-// image is band-limited as a real camera's; without it each pixel samples one point of the scene.
+// A pixel integrates the light over its area through a lens that blurs: with texture filtering or
+// supersampling the image is band-limited as a real camera's; without either each pixel samples
+// one point of the scene.
 #pragma once
 
 #include <Eigen/Core>
