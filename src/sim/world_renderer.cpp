@@ -217,6 +217,12 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   // parameter t is the depth along the optical axis, and a pixel's ray drops y_n = (v - cy) / fy
   // per unit of t.
   auto columnDirection = [&](double u) -> Eigen::Vector2d { return forward + (u - camera_.cx()) / camera_.fx() * right; };
+  // What a ray of the level optical frame (right, down, forward) meets (the tilted or distorting camera's).
+  auto sampleRay = [&](const Eigen::Vector3d& ray) {
+    const Eigen::Vector2d horizontal = ray.z() * forward + ray.x() * right;
+    const auto hit = horizontal.squaredNorm() > 1e-18 ? castRay(world, origin, horizontal) : std::nullopt;
+    return sampleAlong(world, origin, horizontal, hit, ray.y(), surroundings);
+  };
   // What each pixel's ray meets, column by column (index u * height + v).
   // (Kept from call to call in each thread: a fresh 10 MB a frame costs more in page faults than
   // the point samples themselves.)
@@ -232,10 +238,7 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   } else {
     for (int v = 0; v < height; ++v) {
       for (int u = 0; u < width; ++u) {
-        const Eigen::Vector3d& ray = pixel_rays_[static_cast<std::size_t>(v) * width + u];  // right, down, forward
-        const Eigen::Vector2d horizontal = ray.z() * forward + ray.x() * right;
-        const auto hit = horizontal.squaredNorm() > 1e-18 ? castRay(world, origin, horizontal) : std::nullopt;
-        at(u, v) = sampleAlong(world, origin, horizontal, hit, ray.y(), surroundings);
+        at(u, v) = sampleRay(pixel_rays_[static_cast<std::size_t>(v) * width + u]);
       }
     }
   }
@@ -338,10 +341,7 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
                                 (sv - camera_.cy()) / camera_.fy(), surroundings);
           } else {
             const Eigen::Vector2d n = camera_.pixelToNormalized(cv::Point2d(su, sv));
-            const Eigen::Vector3d ray = level_from_camera_ * Eigen::Vector3d(n.x(), n.y(), 1.0);
-            const Eigen::Vector2d horizontal = ray.z() * forward + ray.x() * right;
-            const auto hit = horizontal.squaredNorm() > 1e-18 ? castRay(world, origin, horizontal) : std::nullopt;
-            point = sampleAlong(world, origin, horizontal, hit, ray.y(), surroundings);
+            point = sampleRay(level_from_camera_ * Eigen::Vector3d(n.x(), n.y(), 1.0));
           }
           sum += pointColour(world, point, surroundings);
         }
