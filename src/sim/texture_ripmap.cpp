@@ -62,9 +62,8 @@ double effectiveVariance(double sigma) {
   return sigma * sigma + step * step / 6.0;
 }
 
-// `image` (CV_32FC3) blurred along x (axis 0) or y (axis 1) by σ samples, tiled.
+// `image` (CV_32FC3) blurred along x (axis 0) or y (axis 1) by σ > 0 samples, tiled.
 cv::Mat blurTiled(const cv::Mat& image, double sigma, int axis) {
-  if (!(sigma > 0.0)) return image.clone();
   const int radius = static_cast<int>(std::ceil(4.0 * sigma));
   const cv::Mat gaussian = cv::getGaussianKernel(2 * radius + 1, sigma, CV_32F);
   const cv::Mat one = cv::Mat::ones(1, 1, CV_32F);
@@ -162,9 +161,7 @@ const TextureRipmap& TextureRipmapCache::of(const cv::Mat& texture) {
   // Keyed by the pixels' address: the ripmap holds the texture, so the address is not reused
   // while the entry lives.
   auto found = entries_.find(texture.data);
-  if (found == entries_.end() || found->second->texture().size() != texture.size()) {
-    found = entries_.insert_or_assign(texture.data, std::make_unique<const TextureRipmap>(texture)).first;
-  }
+  if (found == entries_.end()) found = entries_.emplace(texture.data, std::make_unique<const TextureRipmap>(texture)).first;
   return *found->second;
 }
 

@@ -76,7 +76,9 @@ Eigen::Vector2d textureCoordinates(const Wall& wall, const SceneSample& sample) 
   return {sample.along / wall.texture_width * wall.texture.cols, (1.0 - sample.z / wall.texture_height) * wall.texture.rows};
 }
 
-// The colour of one sample of the scene, one point of the texture (bilinear).
+// The colour of one sample of the scene, one point of the texture (bilinear). Its `tv` is wrapped
+// before sampling as the renderer always did (textureCoordinates' unwrapped one differs in the last
+// bits, and one sample per pixel stays byte-identical).
 cv::Vec3f pointColour(const PlanarWorld& world, const SceneSample& sample, const Surroundings& s) {
   switch (sample.surface) {
     case SceneSample::kFloor: return s.floor;
@@ -311,42 +313,47 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   }
   cv::Mat band;  // the edges and the pixels beside them, which the lens's blur of an edge reaches
   cv::dilate(edges, band, cv::Mat());
-  std::vector<std::optional<RayHit>> column_hits(kEdgeSamples);  // the level camera's sub-columns
+  // The mean colour over pixel (u, v)'s area: kEdgeSamples² points of the scene. The level camera
+  // casts each of its sub-columns once per image column (`column_hits`, cast when first needed).
+  std::vector<std::optional<RayHit>> column_hits(kEdgeSamples);
+  auto integrated = [&](int u, int v, bool& column_hits_cast) -> cv::Vec3f {
+    if (pixel_rays_.empty() && !column_hits_cast) {
+      for (int i = 0; i < kEdgeSamples; ++i) {
+        column_hits[static_cast<std::size_t>(i)] = castRay(world, origin, columnDirection(u + (i + 0.5) / kEdgeSamples - 0.5));
+      }
+      column_hits_cast = true;
+    }
+    cv::Vec3f sum(0.0f, 0.0f, 0.0f);
+    for (int i = 0; i < kEdgeSamples; ++i) {
+      const double su = u + (i + 0.5) / kEdgeSamples - 0.5;
+      const Eigen::Vector2d direction = columnDirection(su);
+      for (int j = 0; j < kEdgeSamples; ++j) {
+        const double sv = v + (j + 0.5) / kEdgeSamples - 0.5;
+        SceneSample point;
+        if (pixel_rays_.empty()) {
+          point = sampleAlong(world, origin, direction, column_hits[static_cast<std::size_t>(i)],
+                              (sv - camera_.cy()) / camera_.fy(), surroundings);
+        } else {
+          const Eigen::Vector2d n = camera_.pixelToNormalized(cv::Point2d(su, sv));
+          point = sampleRay(level_from_camera_ * Eigen::Vector3d(n.x(), n.y(), 1.0));
+        }
+        sum += pointColour(world, point, surroundings);
+      }
+    }
+    return sum / static_cast<float>(kEdgeSamples * kEdgeSamples);
+  };
   for (int u = 0; u < width; ++u) {
     bool column_hits_cast = false;
     for (int v = 0; v < height; ++v) {
       const SceneSample& sample = at(u, v);
-      if (!band.at<unsigned char>(v, u)) {
-        put(v, u, sample.surface < 0 ? pointColour(world, sample, surroundings) : filtered(u, v, sigma_pixel));
-        continue;
+      if (edges.at<unsigned char>(v, u)) {
+        put(v, u, integrated(u, v, column_hits_cast));
+      } else if (sample.surface < 0) {
+        put(v, u, pointColour(world, sample, surroundings));
+      } else {
+        // Beside an edge the lens's blur comes after (below): the pixel's area alone here.
+        put(v, u, filtered(u, v, band.at<unsigned char>(v, u) ? sigma_box : sigma_pixel));
       }
-      if (!edges.at<unsigned char>(v, u)) {
-        put(v, u, sample.surface < 0 ? pointColour(world, sample, surroundings) : filtered(u, v, sigma_box));
-        continue;
-      }
-      cv::Vec3f sum(0.0f, 0.0f, 0.0f);
-      for (int i = 0; i < kEdgeSamples; ++i) {
-        const double su = u + (i + 0.5) / kEdgeSamples - 0.5;
-        if (pixel_rays_.empty() && !column_hits_cast) {
-          for (int k = 0; k < kEdgeSamples; ++k) {
-            column_hits[static_cast<std::size_t>(k)] = castRay(world, origin, columnDirection(u + (k + 0.5) / kEdgeSamples - 0.5));
-          }
-          column_hits_cast = true;
-        }
-        for (int j = 0; j < kEdgeSamples; ++j) {
-          const double sv = v + (j + 0.5) / kEdgeSamples - 0.5;
-          SceneSample point;
-          if (pixel_rays_.empty()) {
-            point = sampleAlong(world, origin, columnDirection(su), column_hits[static_cast<std::size_t>(i)],
-                                (sv - camera_.cy()) / camera_.fy(), surroundings);
-          } else {
-            const Eigen::Vector2d n = camera_.pixelToNormalized(cv::Point2d(su, sv));
-            point = sampleRay(level_from_camera_ * Eigen::Vector3d(n.x(), n.y(), 1.0));
-          }
-          sum += pointColour(world, point, surroundings);
-        }
-      }
-      put(v, u, sum / static_cast<float>(kEdgeSamples * kEdgeSamples));
     }
   }
   if (options_.blur_sigma > 0.0) {
