@@ -2,13 +2,14 @@
 // same core: WaypointDriver on DifferentialDriveSim with perfect odometry, ending with a turn to
 // the start heading, WorldRenderer at 10 Hz, TeachSession with planes from odometry), for the
 // closed-loop rostest's fixture.
-//   make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=1] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
+//   make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=0] WORLD.yaml DIRECTORY FEATURE START_X,START_Y X1,Y1 X2,Y2 ...
 // --seed: the renderer's noise (default 1, the fixture's). With the odometry perfect, routes taught
 // with other seeds have the same keyframe poses and other draws of the images' noise, hence of the
 // planes' and the features' errors (evaluate_route_audit pools over such routes).
-// --supersampling: RenderOptions::supersampling (default 1, the simulator's; K > 1 band-limits the
-// images as a real camera's, K² times slower). --texture-filtering=1: RenderOptions::texture_filtering
-// (band-limited by each pixel's footprint on the texture).
+// The pixels are the simulator's (RenderOptions, docs/simulator.md "What a pixel sees"): by default
+// each samples the textures filtered to its footprint (band-limited); --texture-filtering=0: one
+// point of the scene per pixel; --supersampling=K (K > 1, in place of the filtering): the mean of
+// K x K behind the lens's blur, K² times slower.
 // The camera is config/planar_world_sim.yaml's: 640x480, f = 500, 0.2 m ahead of base_link.
 #include <opencv2/core.hpp>
 
@@ -40,7 +41,7 @@ Eigen::Vector2d parsePoint(const std::string& text) {
 int main(int argc, char** argv) {
   int seed = 1;
   int supersampling = 1;
-  int texture_filtering = 0;
+  int texture_filtering = 1;
   // Leading options, each --name=integer.
   const std::pair<const char*, int*> options[] = {{"--seed=", &seed}, {"--supersampling=", &supersampling}, {"--texture-filtering=", &texture_filtering}};
   for (bool consumed = true; consumed && argc > 1;) {
@@ -61,7 +62,7 @@ int main(int argc, char** argv) {
     }
   }
   if (argc < 6) {
-    std::cerr << "usage: make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=1] WORLD.yaml DIRECTORY FEATURE START_X,START_Y "
+    std::cerr << "usage: make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=0] WORLD.yaml DIRECTORY FEATURE START_X,START_Y "
                  "X1,Y1 [X2,Y2 ...]\n";
     return 2;
   }
@@ -83,7 +84,7 @@ int main(int argc, char** argv) {
     render.noise_sigma = 2.0;
     render.blur_sigma = 0.5;
     render.supersampling = supersampling;
-    render.texture_filtering = texture_filtering != 0;
+    render.texture_filtering = supersampling == 1 && texture_filtering != 0;
     const htr::WorldRenderer renderer{htr::PinholeCamera(calibration), render};
     const htr::Pose2D mount(0.2, 0.0, 0.0);
 

@@ -80,6 +80,7 @@ ScenePlane wallPlaneInCamera(const Pose2D& pose, double wall_x) {
 // the simulator's lens blur (0.5 px) and no noise.
 std::pair<cv::Mat, cv::Mat> sampledAndSupersampled(const PlanarWorld& world, const Pose2D& pose, int supersampling) {
   RenderOptions options;
+  options.texture_filtering = false;
   options.blur_sigma = 0.5;
   const WorldRenderer sampled(simCamera(), options);
   options.supersampling = supersampling;
@@ -205,8 +206,11 @@ TEST(WorldRenderer, TextureFilteringBandLimitsATextureFinerThanThePixels) {
 TEST(WorldRenderer, TextureFilteringIsTheBandLimitedImage) {
   const PlanarWorld world = oneWall();
   const auto filtered = [](RenderOptions& o) { o.texture_filtering = true; };
-  const auto fine = [](RenderOptions& o) { o.supersampling = 8; };
-  const auto one_sample = [](RenderOptions&) {};
+  const auto fine = [](RenderOptions& o) {
+    o.texture_filtering = false;
+    o.supersampling = 8;
+  };
+  const auto one_sample = [](RenderOptions& o) { o.texture_filtering = false; };
   const Pose2D far(-6.0, 0.3, 0.0);
   const cv::Rect far_wall(190, 150, 260, 100);  // the wall 10 m away: columns 175-475, rows 115-265
   const cv::Mat reference = renderWith(world, far, fine);
@@ -236,6 +240,7 @@ TEST(WorldRenderer, TextureFilteringWithSupersamplingIsRefused) {
 // RenderOptions::supersampling is 1-8.
 TEST(WorldRenderer, SupersamplingOutsideItsRangeIsRefused) {
   RenderOptions options;
+  options.texture_filtering = false;
   for (const int k : {0, 9}) {
     options.supersampling = k;
     EXPECT_THROW(WorldRenderer(simCamera(), options), std::invalid_argument);

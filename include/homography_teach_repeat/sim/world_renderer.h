@@ -39,16 +39,17 @@ struct RenderOptions {
   double exposure_time = 0.0;  // [s] >= 0: the image is blurred along the rotation of this interval
   double lamp_contrast = 0.0;  // [0, 1): wall brightness 1 + c cos(2 pi s / lamp_spacing), s along the wall
   double lamp_spacing = 3.0;   // [m] > 0: distance between two lamps along a wall
-  // [1-8] 1: one sample of the scene per pixel (fast; a wall whose texture has more detail than
-  // the pixels alias it). k > 1: the scene rendered at k times the resolution, blurred by the lens
-  // (blur_sigma, before the sensor samples it) and each pixel the mean of its k x k: a band-limited
-  // image as a real camera's (docs/simulator.md, "What a pixel sees"), k² times slower.
+  // How a pixel sees the scene (docs/simulator.md, "What a pixel sees"). The default (texture
+  // filtering): each pixel samples the wall textures blurred to its footprint (the lens's
+  // blur_sigma and the pixel's area, a Gaussian mapped onto the wall) from a ripmap of each
+  // texture, and pixels where two surfaces meet are integrated over their area: a band-limited
+  // image as a real camera's, about 3 times the cost of one sample. Off with supersampling 1: one
+  // point of the scene per pixel (fastest; a wall with more detail than the pixels aliases, and
+  // the route audit's far-wall predictions miss). Off with supersampling k in 2-8: the scene at k
+  // times the resolution, blurred by the lens and averaged k x k (k² times slower; the reference
+  // the filtering is tested against). Texture filtering with supersampling > 1 is refused.
   int supersampling = 1;
-  // true: each pixel samples the wall textures blurred to its footprint (the lens's blur_sigma and
-  // the pixel's area, a Gaussian mapped onto the wall), from a ripmap of each texture: band-limited
-  // as with supersampling, at about 3 times the cost of one sample (docs/simulator.md, "What a
-  // pixel sees"). Excludes supersampling > 1.
-  bool texture_filtering = false;
+  bool texture_filtering = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };

@@ -27,11 +27,12 @@
 // inliers' errors grouped by keyframe keypoint also give the share of a match's error that is the
 // keyframe keypoint's own (1/2 for iid noise in both images).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
-//                        [--pixel-sigma 0.35] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
-//                        [--images rendered|warped] [--inliers-out FILE] [--supersampling 1] [--texture-filtering 0]
+//                        [--pixel-sigma 0.28] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
+//                        [--images rendered|warped] [--inliers-out FILE] [--supersampling 1] [--texture-filtering 1]
 // `--supersampling K` renders each pixel as the mean of K x K behind the lens's blur (RenderOptions::
 // supersampling: band-limited, as a real camera; 1: one sample per pixel, which aliases a far wall);
-// `--texture-filtering 1` band-limits each pixel by its footprint on the texture (RenderOptions::texture_filtering).
+// `--texture-filtering 1` (the simulator's default) band-limits each pixel by its footprint on the texture
+// (RenderOptions::texture_filtering); 0 with --supersampling 1: one point of the scene per pixel.
 // How smooth each fix's current-image errors are: an affine field of the image fitted to them
 // explains 3/n of their variance if they are independent (`current_part_affine`, its share over
 // that and how much its coefficients vary from fix to fix). `--images warped` localizes the
@@ -157,12 +158,12 @@ const char* const kErrorPartNames[kErrorParts] = {"current_part", "current_part_
 int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
-                       {"pixel-sigma", "0.35"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
+                       {"pixel-sigma", "0.28"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
                        {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"plots", "1"},
-                       {"images", "rendered"}, {"inliers-out", ""}, {"features-out", ""}, {"supersampling", "1"}, {"texture-filtering", "0"}},
+                       {"images", "rendered"}, {"inliers-out", ""}, {"features-out", ""}, {"supersampling", "1"}, {"texture-filtering", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
-                      "  [--noise GREY] [--blur PX] [--camera-height M] [--supersampling K | --texture-filtering 1] (the simulator's camera) [--seed S]\n"
+                      "  [--noise GREY] [--blur PX] [--camera-height M] [--supersampling K | --texture-filtering 0|1] (the simulator's camera; K > 1 replaces the filtering) [--seed S]\n"
                       "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's)\n"
                       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
                       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]\n"
@@ -193,7 +194,7 @@ int main(int argc, char** argv) {
     render.noise_sigma = args.number("noise");
     render.blur_sigma = args.number("blur");
     render.supersampling = static_cast<int>(args.integer("supersampling"));
-    render.texture_filtering = args.integer("texture-filtering") != 0;
+    render.texture_filtering = render.supersampling == 1 && args.integer("texture-filtering") != 0;
     const PinholeCamera camera(route->info.camera);
     const WorldRenderer renderer(camera, render);
     const Pose2D& m = route->info.camera_mount;
