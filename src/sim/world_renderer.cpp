@@ -316,6 +316,19 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   // The mean colour over pixel (u, v)'s area: kEdgeSamples² points of the scene. The level camera
   // casts each of its sub-columns once per image column (`column_hits`, cast when first needed).
   std::vector<std::optional<RayHit>> column_hits(kEdgeSamples);
+  // The ray through a point inside a pixel of the tilted or distorting camera: bilinear in the
+  // pixels' rays (the lens's map is smooth over a pixel; at the image's border extrapolated from
+  // the last two). Undistorting each of the 64 points (iterative for plumb_bob) made a band-limited
+  // image with a lens 10 times slower than one sample per pixel.
+  auto pixelRayAt = [&](double su, double sv) -> Eigen::Vector3d {
+    const int u0 = std::clamp(static_cast<int>(std::floor(su)), 0, width - 2);
+    const int v0 = std::clamp(static_cast<int>(std::floor(sv)), 0, height - 2);
+    const double a = su - u0, b = sv - v0;
+    auto ray = [&](int du, int dv) -> const Eigen::Vector3d& {
+      return pixel_rays_[static_cast<std::size_t>(v0 + dv) * width + static_cast<std::size_t>(u0 + du)];
+    };
+    return (1.0 - b) * ((1.0 - a) * ray(0, 0) + a * ray(1, 0)) + b * ((1.0 - a) * ray(0, 1) + a * ray(1, 1));
+  };
   auto integrated = [&](int u, int v, bool& column_hits_cast) -> cv::Vec3f {
     if (pixel_rays_.empty() && !column_hits_cast) {
       for (int i = 0; i < kEdgeSamples; ++i) {
@@ -334,8 +347,7 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
           point = sampleAlong(world, origin, direction, column_hits[static_cast<std::size_t>(i)],
                               (sv - camera_.cy()) / camera_.fy(), surroundings);
         } else {
-          const Eigen::Vector2d n = camera_.pixelToNormalized(cv::Point2d(su, sv));
-          point = sampleRay(level_from_camera_ * Eigen::Vector3d(n.x(), n.y(), 1.0));
+          point = sampleRay(pixelRayAt(su, sv));
         }
         sum += pointColour(world, point, surroundings);
       }
