@@ -1,6 +1,6 @@
-// planar_world_sim refuses a camera it cannot render at start-up: a NaN lens coefficient or a zero
-// focal length stops it with a message naming the node and the field, exit code 1 (issue 22, "Bad
-// input"). The test sets the parameters and runs the node itself under the test's master.
+// planar_world_sim refuses a camera it cannot render at start-up: a NaN lens coefficient, a zero
+// focal length or two ways to band-limit its pixels at once stops it with a message naming the node
+// and the field, exit code 1 (issue 22, "Bad input"). The test sets the parameters and runs the node itself under the test's master.
 #include <gtest/gtest.h>
 
 #include <ros/ros.h>
@@ -62,6 +62,17 @@ TEST(PlanarWorldSimBadCamera, AZeroFocalLengthStopsItNamingTheField) {
   EXPECT_EQ(outcome.exit_code, 1) << outcome.output;
   EXPECT_NE(outcome.output.find("zero_focal_sim"), std::string::npos) << outcome.output;
   EXPECT_NE(outcome.output.find("fx must be finite and > 0"), std::string::npos) << outcome.output;
+}
+
+TEST(PlanarWorldSimBadCamera, SupersamplingWithTextureFilteringStopsItNamingBoth) {
+  ros::NodeHandle nh;
+  setValidCamera(nh, "two_filters_sim");
+  nh.setParam("/two_filters_sim/image_supersampling", 4);
+  nh.setParam("/two_filters_sim/image_texture_filtering", true);
+  const Outcome outcome = runSimulator("two_filters_sim");
+  EXPECT_EQ(outcome.exit_code, 1) << outcome.output;
+  EXPECT_NE(outcome.output.find("/two_filters_sim/image_supersampling"), std::string::npos) << outcome.output;
+  EXPECT_NE(outcome.output.find("/two_filters_sim/image_texture_filtering"), std::string::npos) << outcome.output;
 }
 
 int main(int argc, char** argv) {

@@ -141,6 +141,11 @@ PlanarWorldSim::PlanarWorldSim(const ros::NodeHandle& nh, const ros::NodeHandle&
   render.blur_sigma = readParameter(p, "image_blur_sigma", render.blur_sigma);
   render.supersampling = readParameter(p, "image_supersampling", render.supersampling);
   render.texture_filtering = readParameter(p, "image_texture_filtering", render.texture_filtering);
+  if (render.texture_filtering && render.supersampling > 1) {
+    // Both band-limit the image; config/planar_world_sim.yaml turns the filtering on.
+    throw std::runtime_error("parameter '" + p.resolveName("image_supersampling") + "' > 1 supersamples the image in place of '" +
+                             p.resolveName("image_texture_filtering") + "': set that false to supersample");
+  }
   render.camera_pitch = readParameter(p, "camera_pitch", render.camera_pitch);
   render.camera_roll = readParameter(p, "camera_roll", render.camera_roll);
   render.exposure_time = readParameter(p, "exposure_time", render.exposure_time);
