@@ -27,7 +27,7 @@
 // inliers' errors grouped by keyframe keypoint also give the share of a match's error that is the
 // keyframe keypoint's own (1/2 for iid noise in both images).
 //   evaluate_route_audit --world W.yaml --route DIR --out DIR [--offset 0.3] [--samples 20 (>= 6)]
-//                        [--pixel-sigma 0.28] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
+//                        [--pixel-sigma 0.30] [--jitter 0.05] [--jitter-yaw 0.035] [--noise 2.0] [--blur 0.5] [--camera-height 0.6] [--seed 1]
 //                        [--images rendered|warped] [--inliers-out FILE] [--supersampling 1] [--texture-filtering 1]
 // `--supersampling K` renders each pixel as the mean of K x K behind the lens's blur (RenderOptions::
 // supersampling: band-limited, as a real camera; 1: one sample per pixel, which aliases a far wall);
@@ -158,7 +158,7 @@ const char* const kErrorPartNames[kErrorParts] = {"current_part", "current_part_
 int main(int argc, char** argv) {
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
-                       {"pixel-sigma", "0.28"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
+                       {"pixel-sigma", "0.30"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
                        {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"plots", "1"},
                        {"images", "rendered"}, {"inliers-out", ""}, {"features-out", ""}, {"supersampling", "1"}, {"texture-filtering", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
