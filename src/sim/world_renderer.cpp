@@ -321,6 +321,11 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   // the last two). Undistorting each of the 64 points (iterative for plumb_bob) made a band-limited
   // image with a lens 10 times slower than one sample per pixel.
   auto pixelRayAt = [&](double su, double sv) -> Eigen::Vector3d {
+    if (width < 2 || height < 2) {  // a single row or column: no neighbour to interpolate with
+      const int u = std::clamp(static_cast<int>(std::lround(su)), 0, width - 1);
+      const int v = std::clamp(static_cast<int>(std::lround(sv)), 0, height - 1);
+      return pixel_rays_[static_cast<std::size_t>(v) * width + static_cast<std::size_t>(u)];
+    }
     const int u0 = std::clamp(static_cast<int>(std::floor(su)), 0, width - 2);
     const int v0 = std::clamp(static_cast<int>(std::floor(sv)), 0, height - 2);
     const double a = su - u0, b = sv - v0;

@@ -325,6 +325,29 @@ TEST(WorldRenderer, ADistortingLensShowsTheUndistortedPinholeImage) {
   EXPECT_GT(unmapped, 4.0 * mapped) << "the lens must visibly move the image";
 }
 
+// A camera one pixel wide or high through a lens, band-limited: its edge pixels have no neighbour
+// to take their points' rays from, and still render (a column of the wall, its top and foot).
+TEST(WorldRenderer, ASinglePixelColumnThroughALensRenders) {
+  const PlanarWorld world = oneWall();
+  for (const auto& [width, height] : {std::pair<int, int>{1, 480}, std::pair<int, int>{640, 1}, std::pair<int, int>{1, 1}}) {
+    CameraCalibration calibration = test_support::syntheticCalibration();
+    calibration.width = width;
+    calibration.height = height;
+    calibration.cx = (width - 1) / 2.0;
+    calibration.cy = (height - 1) / 2.0;
+    calibration.distortion_model = "plumb_bob";
+    calibration.distortion = {-0.25, 0.08, 0.0, 0.0, 0.0};
+    RenderOptions options;
+    options.camera_height = 0.6;
+    options.blur_sigma = 0.5;
+    const WorldRenderer renderer(PinholeCamera(calibration), options);
+    cv::RNG rng(1);
+    const cv::Mat image = renderer.render(world, Pose2D(0.0, 0.0, 0.0), 1.0, rng);
+    EXPECT_EQ(image.cols, width);
+    EXPECT_EQ(image.rows, height);
+  }
+}
+
 // A mount that is not level is a rotation of the level camera: the tilted image is the level one
 // through K T K⁻¹. REP-103 roll ρ then pitch φ of base_link give T = Rz(−ρ) Rx(φ) in optical axes,
 // to first order the package's tilt Rx(φ) Rz(ψ) of docs/math.md §1.10 with ψ = −ρ.
