@@ -321,18 +321,15 @@ cv::Mat WorldRenderer::renderSamples(const PlanarWorld& world, const Pose2D& cam
   // the last two). Undistorting each of the 64 points (iterative for plumb_bob) made a band-limited
   // image with a lens 10 times slower than one sample per pixel.
   auto pixelRayAt = [&](double su, double sv) -> Eigen::Vector3d {
-    if (width < 2 || height < 2) {  // a single row or column: no neighbour to interpolate with
-      const int u = std::clamp(static_cast<int>(std::lround(su)), 0, width - 1);
-      const int v = std::clamp(static_cast<int>(std::lround(sv)), 0, height - 1);
-      return pixel_rays_[static_cast<std::size_t>(v) * width + static_cast<std::size_t>(u)];
-    }
-    const int u0 = std::clamp(static_cast<int>(std::floor(su)), 0, width - 2);
-    const int v0 = std::clamp(static_cast<int>(std::floor(sv)), 0, height - 2);
+    // (A camera one pixel wide or high interpolates its one ray with itself.)
+    const int u0 = std::clamp(static_cast<int>(std::floor(su)), 0, std::max(width - 2, 0));
+    const int v0 = std::clamp(static_cast<int>(std::floor(sv)), 0, std::max(height - 2, 0));
+    const int u1 = std::min(u0 + 1, width - 1), v1 = std::min(v0 + 1, height - 1);
     const double a = su - u0, b = sv - v0;
-    auto ray = [&](int du, int dv) -> const Eigen::Vector3d& {
-      return pixel_rays_[static_cast<std::size_t>(v0 + dv) * width + static_cast<std::size_t>(u0 + du)];
+    auto ray = [&](int u, int v) -> const Eigen::Vector3d& {
+      return pixel_rays_[static_cast<std::size_t>(v) * width + static_cast<std::size_t>(u)];
     };
-    return (1.0 - b) * ((1.0 - a) * ray(0, 0) + a * ray(1, 0)) + b * ((1.0 - a) * ray(0, 1) + a * ray(1, 1));
+    return (1.0 - b) * ((1.0 - a) * ray(u0, v0) + a * ray(u1, v0)) + b * ((1.0 - a) * ray(u0, v1) + a * ray(u1, v1));
   };
   auto integrated = [&](int u, int v, bool& column_hits_cast) -> cv::Vec3f {
     if (pixel_rays_.empty() && !column_hits_cast) {
