@@ -275,9 +275,16 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     }
     return std::nullopt;
   };
-  auto load = [&](const RecordedSequence& sequence, int index) -> Expected<PreparedImage> {
+  // A frame whose image cannot be read (a corrupt or truncated file or message) is skipped and
+  // listed; anything else that stops a frame stops the evaluation.
+  auto load = [&](const RecordedSequence& sequence, int index, const char* phase, bool* unreadable) -> Expected<PreparedImage> {
+    *unreadable = false;
     auto image = sequence.load_image(index);
-    if (!image) return image.status();
+    if (!image) {
+      *unreadable = true;
+      evaluation.unreadable_frames.push_back({phase, index, image.status().message()});
+      return image.status();
+    }
     if (options.level == LevelSource::kGravity && !image->camera_to_level) {
       return invalid("level 'gravity' needs each frame's tilt, which this sequence does not have (use 'mount')");
     }
@@ -291,7 +298,9 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     options.teach.keyframes.angle = std::numeric_limits<double>::min();
   }
   for (const int index : selection.teach_frames) {
-    auto prepared = load(teach, index);
+    bool unreadable = false;
+    auto prepared = load(teach, index, "teach", &unreadable);
+    if (!prepared && unreadable) continue;
     if (!prepared) return invalid("teach frame " + std::to_string(index) + ": " + prepared.status().message());
     if (!session) {
       auto started = TeachSession::start(options.teach, prepared->camera, teach.camera_mount);
@@ -338,7 +347,9 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     FrameOutcome outcome;
     outcome.frame = index;
     outcome.stamp = stamp;
-    auto prepared = load(repeat, index);
+    bool unreadable = false;
+    auto prepared = load(repeat, index, "repeat", &unreadable);
+    if (!prepared && unreadable) continue;
     if (!prepared) return invalid("repeat frame " + std::to_string(index) + ": " + prepared.status().message());
     Expected<PinholeCamera> camera = Status(StatusCode::kInvalidInput, "camera");
     try {
@@ -450,7 +461,12 @@ nlohmann::json toJson(const SequenceEvaluation& evaluation) {
     }
     keyframes.push_back(j);
   }
+  nlohmann::json unreadable = nlohmann::json::array();
+  for (const auto& u : evaluation.unreadable_frames) {
+    unreadable.push_back({{"phase", u.phase}, {"frame", u.frame}, {"reason", u.reason}});
+  }
   return {{"kind", "sequence_evaluation"},
+          {"unreadable_frames", unreadable},
           {"summary", summaryOf(all)},
           {"segments", segments},
           {"odometry", evaluation.odometry_note},

@@ -39,7 +39,6 @@ HomographyNode::HomographyNode(const ros::NodeHandle& nh, const ros::NodeHandle&
       reference_path_(readRequiredParameter<std::string>(private_nh, "reference_image")),
       image_timeout_s_(readParameter(private_nh, "image_timeout", 2.0)),
       registration_(readRegistrationOptions(private_nh)),
-      image_transport_(nh),
       diagnostics_(nh, private_nh) {
   if (!(image_timeout_s_ > 0.0)) {
     throw std::runtime_error("parameter '" + private_nh.resolveName("image_timeout") +
@@ -61,8 +60,10 @@ HomographyNode::HomographyNode(const ros::NodeHandle& nh, const ros::NodeHandle&
 
   homography_publisher_ = private_nh_.advertise<HomographyStamped>("homography", 10);
   debug_image_publisher_ = image_transport::ImageTransport(private_nh_).advertise("debug_image", 1);
-  camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1,
-                                                        &HomographyNode::onImage, this);
+  camera_subscriber_ = std::make_unique<CameraSubscription>(
+      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
+      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "homography_node: %s", reason.c_str()); });
   diagnostics_.setHardwareID("camera");
   diagnostics_.add("registration", this, &HomographyNode::produceDiagnostics);
   // Diagnostics also tick without images, so a stopped camera shows up.
@@ -120,6 +121,7 @@ void HomographyNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrap
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, last_status_.toString());
   }
+  if (camera_subscriber_) camera_subscriber_->addDiagnostics(stat);
   stat.add("reference", reference_path_);
   stat.add("frames", frames_);
   stat.add("failures", failures_);

@@ -23,7 +23,7 @@
 namespace homography_teach_repeat {
 
 RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
-    : nh_(nh), private_nh_(private_nh), image_transport_(nh), diagnostics_(nh, private_nh) {
+    : nh_(nh), private_nh_(private_nh), diagnostics_(nh, private_nh) {
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   map_frame_ = readParameter<std::string>(private_nh, "map_frame", "map");
   odom_frame_ = readParameter<std::string>(private_nh, "odom_frame", "odom");
@@ -81,7 +81,10 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
                                         "must be in [0, 5] s");
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
-  camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1, &RepeatNode::onImage, this);
+  camera_subscriber_ = std::make_unique<CameraSubscription>(
+      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
+      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "repeat_node: %s", reason.c_str()); });
   diagnostics_.setHardwareID("repeat_node");
   diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
   start_time_ = ros::Time::now();
@@ -92,7 +95,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
       const double silence = cameraSilence();
       if (silence > image_timeout_) {
         ROS_WARN_THROTTLE(10.0, "repeat_node: no image on %s for %.1f s: no pose is published",
-                          camera_subscriber_.getTopic().c_str(), silence);
+                          camera_subscriber_->getTopic().c_str(), silence);
         // Nothing to judge: the pose is LOST until images come again.
         IntegrityReport report;
         report.level = IntegrityLevel::kLost;
@@ -229,175 +232,6 @@ void RepeatNode::checkCameraMount(const std::string& camera_frame) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   mount_warning_ = warning;
-}
-
-void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFrameResult& result,
-                         const Expected<cv::Mat>& cv_image) {
-  // The pose first: a subscriber that hears of a frame without a fix before its (bridged) pose
-  // would stop for nothing.
-  if (result.pose) publishPose(image->header.stamp, result);
-  std_msgs::Header integrity_header = image->header;
-  integrity_header.frame_id = map_frame_;
-  publishIntegrity(integrity_header, result.integrity, result.fixes, /*camera_silent=*/false);
-  HeadingCorrectionStamped heading;
-  heading.header = image->header;
-  heading.mode = toString(pipeline_->options().localization.mode);
-  heading.reference_index = -1;
-  heading.ok = result.estimate.has_value();
-  heading.status = heading.ok ? "ok" : result.status.toString();
-  if (const auto& e = result.estimate) {
-    heading.theta = e->heading_correction;
-    heading.mu = e->mu;
-    heading.inliers = static_cast<uint32_t>(e->inliers);
-    heading.matches = static_cast<uint32_t>(e->matches);
-    heading.reference_index = e->keyframe;
-    heading.degraded = e->degraded;
-    heading.tracked = e->tracked;
-    if (e->keyframe != marked_keyframe_) publishMarkers(e->keyframe);
-  } else {
-    ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", result.status.toString().c_str());
-  }
-  heading_publisher_.publish(heading);
-  if (!result.warning.empty()) ROS_WARN_THROTTLE(5.0, "repeat_node: %s", result.warning.c_str());
-  if (debug_publisher_.getNumSubscribers() > 0 && cv_image) publishDebugImage(image, *cv_image, result);
-}
-
-void RepeatNode::publishPose(const ros::Time& stamp, const RepeatFrameResult& result) {
-  geometry_msgs::PoseWithCovarianceStamped pose;
-  pose.header.stamp = stamp;
-  pose.header.frame_id = map_frame_;
-  pose.pose = ros_conversions::toPoseWithCovariance(*result.pose, result.covariance ? &*result.covariance : nullptr,
-                                                    unobserved_variance_);
-  pose_publisher_.publish(pose);
-  if (!publish_tf_) return;
-  if (!result.map_to_odom) {
-    ROS_WARN_THROTTLE(5.0, "repeat_node: no map -> odom tf: no odometry at the image stamp");
-    return;
-  }
-  geometry_msgs::TransformStamped t;
-  t.header.stamp = stamp;
-  t.header.frame_id = map_frame_;
-  t.child_frame_id = odom_frame_;
-  t.transform.translation.x = result.map_to_odom->x;
-  t.transform.translation.y = result.map_to_odom->y;
-  t.transform.rotation = ros_conversions::yawQuaternion(result.map_to_odom->yaw);
-  tf_broadcaster_.sendTransform(t);
-}
-
-void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, const cv::Mat& current,
-                                   const RepeatFrameResult& result) {
-  const RepeatEstimate* estimate = result.estimate ? &*result.estimate : nullptr;
-  if (estimate != nullptr && estimate->keyframe >= 0 && estimate->keyframe != debug_keyframe_) {
-    debug_keyframe_ = estimate->keyframe;
-    debug_reference_ = cv::Mat();
-    const auto reference = loadKeyframeImage(pipeline_->localizer().route(), static_cast<std::size_t>(estimate->keyframe));
-    if (!reference) {
-      ROS_WARN_THROTTLE(10.0, "repeat_node: debug_image without its reference keyframe: %s",
-                        reference.status().toString().c_str());
-    } else if (reference->channels() == 1) {
-      cv::cvtColor(*reference, debug_reference_, cv::COLOR_GRAY2BGR);
-    } else {
-      debug_reference_ = reference->clone();
-    }
-  }
-  const cv::Mat canvas = drawRepeatMatches(debug_reference_, current, estimate, result.status.toString());
-  debug_publisher_.publish(cv_bridge::CvImage(image->header, "bgr8", canvas).toImageMsg());
-}
-
-void RepeatNode::publishIntegrity(const std_msgs::Header& header, const IntegrityReport& report,
-                                  const std::string& fixes, bool camera_silent) {
-  if (report.level != last_integrity_.level) {
-    if (report.level == IntegrityLevel::kOk) {
-      ROS_INFO("repeat_node: integrity OK");
-    } else {
-      ROS_WARN("repeat_node: integrity %s: %s", toString(report.level).c_str(), report.reason.c_str());
-    }
-  }
-  last_integrity_ = report;
-  Integrity message;
-  message.header = header;
-  message.level = static_cast<uint8_t>(report.level);
-  message.level_name = toString(report.level);
-  message.reason = report.reason;
-  message.fixes = fixes;
-  message.position_bound = report.position_bound;
-  message.heading_bound = report.heading_bound;
-  message.nis_per_dof = report.nis_per_dof;
-  message.refused_in_a_row = report.refused_in_a_row;
-  message.time_without_fix = report.time_without_fix;
-  message.distance_without_fix = report.distance_without_fix;
-  message.inliers = report.inliers;
-  message.camera_silent = camera_silent;
-  integrity_publisher_.publish(message);
-}
-
-void RepeatNode::publishMarkers(int current_keyframe) {
-  marked_keyframe_ = current_keyframe;
-  marker_publisher_.publish(
-      ros_conversions::routeMarkers(pipeline_->localizer().route(), current_keyframe, map_frame_, ros::Time::now()));
-}
-
-double RepeatNode::cameraSilence() const {
-  const bool images = pipeline_->statistics().frames > 0;
-  if (!images && start_time_.isZero()) return 0.0;  // simulated clock not started yet
-  return (ros::Time::now() - (images ? last_image_arrival_ : start_time_)).toSec();
-}
-
-void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const RepeatStatistics& s = pipeline_->statistics();
-  const double silence = cameraSilence();
-  if (silence > image_timeout_) {
-    // A camera that stops is an error: no pose is published and the controller stops the robot.
-    char text[160];
-    std::snprintf(text, sizeof text, "%s: no image for %.1f s (image_timeout %.1f s)",
-                  s.frames > 0 ? "camera stopped" : "waiting for the camera", silence, image_timeout_);
-    stat.summary(s.frames > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::WARN, text);
-  } else if (!s.last_status.isOk()) {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, s.last_status.toString());
-  } else if (s.last_degraded) {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "degraded: localized against the temporary reference (route keyframes fail)");
-  } else if (last_integrity_.level != IntegrityLevel::kOk) {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                 "integrity " + toString(last_integrity_.level) + ": " + last_integrity_.reason);
-  } else if (!mount_warning_.empty()) {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, mount_warning_);
-  } else {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "localized");
-  }
-  stat.add("frames", s.frames);
-  if (!mount_warning_.empty()) stat.add("camera mount", mount_warning_);
-  stat.add("seconds since the last image", s.frames > 0 ? silence : -1.0);
-  stat.add("integrity", toString(last_integrity_.level) +
-                            (last_integrity_.reason.empty() ? "" : ": " + last_integrity_.reason));
-  stat.addf("integrity 95 % bounds [m, deg]", "%.3f, %.2f", last_integrity_.position_bound,
-            last_integrity_.heading_bound * 180.0 / M_PI);
-  stat.addf("integrity NIS per dof (fixes)", "%.2f (%d)", last_integrity_.nis_per_dof, last_integrity_.nis_count);
-  stat.addf("integrity time / distance without a fix [s, m]", "%.1f, %.2f", last_integrity_.time_without_fix,
-            last_integrity_.distance_without_fix);
-  if (!pipeline_->hybridNotes().empty()) stat.add("hybrid: missing from the route", pipeline_->hybridNotes());
-  stat.add("failures", s.failures);
-  stat.add("degraded frames", s.degraded);
-  stat.add("poses refused by the odometry gate", s.gated);
-  stat.add("failed frames in a row", s.failures_in_a_row);
-  stat.addf("whole-route searches (found a pose)", "%u (%u)", s.searches_all, s.found_by_search_all);
-  // Median and maximum over the last frames (the latency an image sees is its age + processing).
-  using Figure = std::optional<double>;
-  stat.add("processing time median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) { return Figure(t.processing_ms); }));
-  stat.add("image age at processing start median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) { return Figure(t.age_ms); }));
-  stat.add("feature extraction median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) {
-             return t.localize ? Figure(t.localize->extraction_ms) : std::nullopt;
-           }));
-  stat.add("matching and estimation median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) {
-             return t.localize ? Figure(t.localize->references_ms) : std::nullopt;
-           }));
-  stat.add("references tried per frame median / max", timing_.medianAndMax([](const FrameTiming& t) {
-             return t.localize ? Figure(t.localize->references_tried) : std::nullopt;
-           }));
-  stat.addf("frames tracked by optical flow", "%zu of the last %zu", timing_.trackedFrames(), timing_.size());
-  stat.add("last inliers", s.last_inliers);
-  stat.add("reference keyframe", s.last_keyframe);
-  stat.add("tracked keyframe", pipeline_->localizer().trackedKeyframe());
 }
 
 }  // namespace homography_teach_repeat

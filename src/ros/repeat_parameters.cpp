@@ -34,7 +34,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.mu_line_landmarks = readParameter(nh, "mu_line_landmarks", r.mu_line_landmarks);
     r.line_landmarks.max_reprojection_px = readParameter(nh, "line_landmark_max_reprojection", r.line_landmarks.max_reprojection_px);
     r.line_landmarks.max_depth_m = readParameter(nh, "line_landmark_max_depth", r.line_landmarks.max_depth_m);
-    HeadingAidedOdometryOptions& m = o.mu_filter;
+    LocalizationFilterOptions& m = o.mu_filter;
     m.initial_position_variance = readParameter(nh, "mu_initial_position_variance", m.initial_position_variance);
     m.position_variance_per_metre = readParameter(nh, "mu_position_variance_per_metre", m.position_variance_per_metre);
     m.heading_fix_variance = readParameter(nh, "mu_heading_fix_variance", m.heading_fix_variance);

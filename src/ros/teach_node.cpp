@@ -68,7 +68,6 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
       odometry_(readParameter(private_nh, "odometry_buffer_seconds", 5.0),
                 readParameter(private_nh, "max_odometry_gap", 0.5)),
       tf_listener_(tf_buffer_),
-      image_transport_(nh),
       diagnostics_(nh, private_nh) {
   status_publisher_ = private_nh_.advertise<TeachStatus>("status", 1, /*latch=*/true);
   publishStatus("waiting", "waiting for camera/image_raw, camera/camera_info and odom");
@@ -77,7 +76,10 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
                                         "must be in [0, 5] s");
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
-  camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 2, &TeachNode::onImage, this);
+  camera_subscriber_ = std::make_unique<CameraSubscription>(
+      nh_, "camera/image_raw", 2, readImageTransport(private_nh_),
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
+      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "teach_node: %s", reason.c_str()); });
   finish_service_ = private_nh_.advertiseService("finish", &TeachNode::onFinish, this);
   diagnostics_.setHardwareID("teach_node");
   diagnostics_.add("teach", this, &TeachNode::produceDiagnostics);
@@ -279,6 +281,7 @@ void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, state_ + ": " + last_message_);
   }
+  if (camera_subscriber_) camera_subscriber_->addDiagnostics(stat);
   stat.add("state", state_);
   stat.add("keyframes", session_ ? session_->keyframeCount() : 0);
   stat.add("images", images_);

@@ -63,7 +63,6 @@ TrifocalLocalizerNode::TrifocalLocalizerNode(const ros::NodeHandle& nh, const ro
       max_camera_tilt_(readParameter(private_nh, "max_camera_tilt", 0.05)),
       max_transfer_error_px_(readParameter(private_nh, "max_transfer_error", 3.0)),
       options_(readOptions(private_nh)),
-      image_transport_(nh),
       tf_listener_(tf_buffer_),
       diagnostics_(nh, private_nh) {
   requirePositive(private_nh, "min_baseline", min_baseline_);
@@ -72,7 +71,10 @@ TrifocalLocalizerNode::TrifocalLocalizerNode(const ros::NodeHandle& nh, const ro
   poses_publisher_ = private_nh_.advertise<geometry_msgs::PoseArray>("poses", 5);
   landmarks_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 5);
   odometry_subscriber_ = nh_.subscribe("odom", 50, &TrifocalLocalizerNode::onOdometry, this, ros::TransportHints().tcpNoDelay());
-  camera_subscriber_ = image_transport_.subscribeCamera("camera/image_raw", 1, &TrifocalLocalizerNode::onImage, this);
+  camera_subscriber_ = std::make_unique<CameraSubscription>(
+      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
+      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "trifocal_localizer: %s", reason.c_str()); });
   diagnostics_.setHardwareID("trifocal_localizer");
   diagnostics_.add("three-view localization", this, &TrifocalLocalizerNode::produceDiagnostics);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
@@ -202,6 +204,7 @@ void TrifocalLocalizerNode::produceDiagnostics(diagnostic_updater::DiagnosticSta
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_status_.toString());
   }
+  if (camera_subscriber_) camera_subscriber_->addDiagnostics(stat);
   stat.add("views taken", views_taken_);
   stat.add("localizations", localizations_);
   stat.add("failures", failures_);

@@ -10,7 +10,7 @@
 #include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/homography_decomposition.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
-#include "homography_teach_repeat/mu/heading_aided_odometry.h"
+#include "homography_teach_repeat/localization/localization_filter.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
 
 namespace homography_teach_repeat {

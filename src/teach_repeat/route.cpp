@@ -13,8 +13,13 @@
 #include <sstream>
 
 #include "homography_teach_repeat/common/atomic_file.h"
+#include "homography_teach_repeat/teach_repeat/route_files.h"
 
 namespace homography_teach_repeat {
+using route_files::Reader;
+using route_files::writeFeaturesFile;
+using route_files::writeImageFile;
+
 namespace {
 
 const char* const kIndexName = "route.yaml";
@@ -59,55 +64,6 @@ void emitPose(YAML::Emitter& out, const Pose2D& pose) {
   out << YAML::Flow << YAML::BeginMap << YAML::Key << "x" << YAML::Value << pose.x << YAML::Key
       << "y" << YAML::Value << pose.y << YAML::Key << "yaw" << YAML::Value << pose.yaw
       << YAML::EndMap;
-}
-
-// Field access that reports the file, the key and the line of the node on failure.
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  template <typename T>
-  T get(const YAML::Node& node, const std::string& key) const {
-    const YAML::Node child = node[key];
-    if (!child) throw error(node, "missing field '" + key + "'");
-    try {
-      return child.as<T>();
-    } catch (const YAML::Exception&) {
-      throw error(child, "field '" + key + "' has the wrong type");
-    }
-  }
-  double finite(const YAML::Node& node, const std::string& key) const {
-    const double value = get<double>(node, key);
-    if (!std::isfinite(value)) throw error(node[key], "field '" + key + "' is not finite");
-    return value;
-  }
-  Pose2D pose(const YAML::Node& node, const std::string& key) const {
-    const YAML::Node child = node[key];
-    if (!child || !child.IsMap()) throw error(node, "missing map '" + key + "'");
-    return Pose2D(finite(child, "x"), finite(child, "y"), finite(child, "yaw"));
-  }
-  std::runtime_error error(const YAML::Node& node, const std::string& message) const {
-    const int line = node.Mark().line >= 0 ? node.Mark().line + 1 : 0;
-    return std::runtime_error(file_ + (line > 0 ? ":" + std::to_string(line) : "") + ": " +
-                              message);
-  }
-
- private:
-  std::string file_;
-};
-
-Status writeImageFile(const std::string& path, const cv::Mat& image) {
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) return Status(StatusCode::kInvalidInput, "cannot encode an image as PNG");
-  return writeFileAtomically(path, std::string(png.begin(), png.end()));
-}
-
-Status writeFeaturesFile(const std::string& path, const ImageFeatures& features) {
-  cv::FileStorage storage(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  storage << "feature_type" << toString(features.type);
-  cv::write(storage, "keypoints", features.keypoints);
-  storage << "descriptors" << features.descriptors;
-  return writeFileAtomically(path, storage.releaseAndGetString());
 }
 
 }  // namespace
@@ -450,118 +406,6 @@ Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, c
     std::remove((route.directory + "/" + e.features_file).c_str());
   }
   return Status::ok();
-}
-
-namespace {
-Status checkKeyframe(const Route& route, std::size_t keyframe) {
-  if (keyframe >= route.keyframes.size()) {
-    return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(keyframe) +
-                                                 " is not in the route (" +
-                                                 std::to_string(route.keyframes.size()) + ")");
-  }
-  return Status::ok();
-}
-}  // namespace
-
-Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe) {
-  const Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  const std::string path = route.directory + "/" + route.keyframes[keyframe].image_file;
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) {
-    return Status(StatusCode::kInvalidInput, "keyframe image '" + path + "' cannot be decoded");
-  }
-  return image;
-}
-
-namespace {
-Expected<ImageFeatures> loadFeaturesFile(const Route& route, const std::string& path) {
-  ImageFeatures features;
-  try {
-    cv::FileStorage storage(path, cv::FileStorage::READ);
-    if (!storage.isOpened()) {
-      return Status(StatusCode::kInvalidInput, "cannot open keyframe features '" + path + "'");
-    }
-    std::string type;
-    storage["feature_type"] >> type;
-    features.type = featureTypeFromString(type);
-    cv::read(storage["keypoints"], features.keypoints);
-    storage["descriptors"] >> features.descriptors;
-  } catch (const std::exception& e) {
-    return Status(StatusCode::kInvalidInput,
-                  "keyframe features '" + path + "' are corrupt: " + e.what());
-  }
-  if (features.type != route.info.feature_type ||
-      static_cast<int>(features.keypoints.size()) != features.descriptors.rows) {
-    return Status(StatusCode::kInvalidInput,
-                  "keyframe features '" + path + "' are inconsistent (type or count)");
-  }
-  return features;
-}
-}  // namespace
-
-Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe) {
-  const Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  return loadFeaturesFile(route, route.directory + "/" + route.keyframes[keyframe].features_file);
-}
-
-Status writeKeyframeFeatures(const Route& route, std::size_t keyframe, const ImageFeatures& features) {
-  Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  return writeFeaturesFile(route.directory + "/" + route.keyframes[keyframe].features_file, features);
-}
-
-Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience) {
-  const Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  const auto& experiences = route.keyframes[keyframe].experiences;
-  if (experience >= experiences.size()) {
-    return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(keyframe) + " has no experience " +
-                                                 std::to_string(experience));
-  }
-  return loadFeaturesFile(route, route.directory + "/" + experiences[experience].features_file);
-}
-
-Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe) {
-  const Status valid = checkKeyframe(route, keyframe);
-  if (!valid.isOk()) return valid;
-  const std::string path = route.directory + "/" + route.keyframes[keyframe].lines_file;
-  const Reader reader(path);
-  std::vector<VerticalLine> lines;
-  try {
-    const YAML::Node root = YAML::LoadFile(path);
-    if (!root.IsMap() || !root["lines"] || !root["lines"].IsSequence()) {
-      throw reader.error(root, "missing list 'lines' (empty or truncated file?)");
-    }
-    auto point = [&](const YAML::Node& node, const std::string& key) {
-      const auto v = reader.get<std::vector<double>>(node, key);
-      if (v.size() != 2 || !std::isfinite(v[0]) || !std::isfinite(v[1])) {
-        throw reader.error(node, "'" + key + "' needs 2 finite numbers");
-      }
-      return Eigen::Vector2d(v[0], v[1]);
-    };
-    for (const auto& node : root["lines"]) {
-      VerticalLine l;
-      l.x = reader.finite(node, "x");
-      l.top = point(node, "top");
-      l.bottom = point(node, "bottom");
-      l.top_undistorted = point(node, "top_undistorted");
-      l.bottom_undistorted = point(node, "bottom_undistorted");
-      l.length = reader.finite(node, "length");
-      l.polarity = reader.get<bool>(node, "dark_left") ? EdgePolarity::kDarkLeft
-                                                       : EdgePolarity::kDarkRight;
-      l.left_brightness = reader.finite(node, "left_brightness");
-      l.right_brightness = reader.finite(node, "right_brightness");
-      l.contrast = reader.finite(node, "contrast");
-      lines.push_back(l);
-    }
-  } catch (const YAML::Exception& e) {
-    return Status(StatusCode::kInvalidInput, path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
-  } catch (const std::runtime_error& e) {
-    return Status(StatusCode::kInvalidInput, e.what());
-  }
-  return lines;
 }
 
 }  // namespace homography_teach_repeat

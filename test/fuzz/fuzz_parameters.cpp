@@ -7,7 +7,7 @@
 #include "fuzz_support.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/mu/homography_1d.h"
-#include "homography_teach_repeat/teach_repeat/odometry_gate.h"
+#include "homography_teach_repeat/localization/odometry_gate.h"
 #include "homography_teach_repeat/control/potential_field_controller.h"
 #include "homography_teach_repeat/eval/synthetic_bearing_scene.h"
 #include "homography_teach_repeat/trifocal/trifocal_ransac.h"

@@ -3,16 +3,21 @@
 // taught one (test/support/synthetic_route.h). The rostest repeat_node_bag plays it back through
 // repeat_node with `rosbag play`. With --tf, the camera mount (base_link -> camera_optical_frame,
 // the camera at the base, level) goes to /tf_static too, and --frames N records N frames
-// (evaluate_sequence's end-to-end test teaches and repeats from it).
+// (evaluate_sequence's end-to-end test teaches and repeats from it). --compressed jpeg|png records
+// sensor_msgs/CompressedImage on camera/image_raw/compressed instead (as a camera driver publishes
+// it), and --corrupt-frame K cuts frame K's JPEG/PNG short (a frame the readers must skip).
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "synthetic_camera.h"
 
@@ -37,6 +42,8 @@ nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, c
 int main(int argc, char** argv) {
   bool with_tf = false;
   int frames = 10;
+  std::string compression;  // "", "jpeg" or "png"
+  int corrupt_frame = -1;
   std::string path;
   for (int i = 1; i < argc; ++i) {
     const std::string argument = argv[i];
@@ -44,12 +51,17 @@ int main(int argc, char** argv) {
       with_tf = true;
     } else if (argument == "--frames" && i + 1 < argc) {
       frames = std::atoi(argv[++i]);
+    } else if (argument == "--compressed" && i + 1 < argc) {
+      compression = argv[++i];
+    } else if (argument == "--corrupt-frame" && i + 1 < argc) {
+      corrupt_frame = std::atoi(argv[++i]);
     } else {
       path = argument;
     }
   }
-  if (path.empty() || frames < 2) {
-    std::cerr << "usage: make_test_bag FILE.bag [--tf] [--frames N >= 2]\n";
+  if (path.empty() || frames < 2 || (compression != "" && compression != "jpeg" && compression != "png") ||
+      (corrupt_frame >= 0 && compression.empty())) {
+    std::cerr << "usage: make_test_bag FILE.bag [--tf] [--frames N >= 2] [--compressed jpeg|png [--corrupt-frame K]]\n";
     return 2;
   }
   try {
@@ -87,11 +99,27 @@ int main(int argc, char** argv) {
       image->header.frame_id = "camera_optical_frame";
       sensor_msgs::CameraInfo info = test_support::syntheticCameraInfo();
       info.header = image->header;
-      bag.write("camera/image_raw", stamp, *image);
+      if (compression.empty()) {
+        bag.write("camera/image_raw", stamp, *image);
+      } else {
+        sensor_msgs::CompressedImage compressed;
+        compressed.header = image->header;
+        compressed.format = "mono8; " + compression + " compressed mono8";
+        const cv::Mat pixels(static_cast<int>(image->height), static_cast<int>(image->width), CV_8UC1, image->data.data(),
+                             image->step);
+        const std::vector<int> quality{cv::IMWRITE_JPEG_QUALITY, 95};
+        if (!cv::imencode(compression == "jpeg" ? ".jpg" : ".png", pixels, compressed.data,
+                          compression == "jpeg" ? quality : std::vector<int>{})) {
+          throw std::runtime_error("cannot encode frame " + std::to_string(i));
+        }
+        if (i == corrupt_frame) compressed.data.resize(compressed.data.size() / 2);
+        bag.write("camera/image_raw/compressed", stamp, compressed);
+      }
       bag.write("camera/camera_info", stamp, info);
     }
     bag.close();
-    std::cout << "bag written to " << path << " (" << frames << " frames)\n";
+    std::cout << "bag written to " << path << " (" << frames << " frames"
+              << (compression.empty() ? "" : ", " + compression + " compressed") << ")\n";
   } catch (const std::exception& e) {
     std::cerr << "make_test_bag: " << e.what() << "\n";
     return 1;

@@ -96,16 +96,25 @@ struct FrameOutcome {
   double distance = 0.0;  // [m] along the ground truth from the first repeat frame
 };
 
+// A frame skipped because its image could not be read.
+struct UnreadableFrame {
+  std::string phase;  // "teach" or "repeat"
+  int frame = -1;     // sequence index
+  std::string reason;
+};
+
 struct SequenceEvaluation {
   std::vector<FrameOutcome> frames;
+  std::vector<UnreadableFrame> unreadable_frames;  // skipped: their images could not be read
   std::vector<int> keyframe_frames;  // sequence index of each keyframe
   Route route;
   PlaneEstimationReport planes;
   std::string odometry_note;  // where the teach and repeat odometry came from
 };
 
-// Runs teach then repeat. kInvalidInput naming the problem: no frames, an index outside a
-// sequence, no ground truth where one is needed, an image that cannot be read, a route directory
+// Runs teach then repeat. A frame whose image cannot be read (corrupt, truncated) is skipped and
+// listed in unreadable_frames. kInvalidInput naming the problem: no frames, an index outside a
+// sequence, no ground truth where one is needed, a route directory
 // that cannot be written; a failed teach (too few keyframes) with the teach session's status.
 Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, const RecordedSequence& repeat,
                                               const SequenceSelection& selection,

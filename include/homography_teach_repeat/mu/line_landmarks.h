@@ -4,7 +4,7 @@
 // explains. Here each keyframe line is triangulated from the keyframe and its taught neighbours
 // (known odometry motion), verified in a third view, and a repeat image's lines are then each a
 // bearing measurement of the robot pose: the μ mode's filter takes them all in one update
-// (HeadingAidedOdometry::correctWithLineLandmarks).
+// (LocalizationFilter::correctWithLineLandmarks).
 //
 // Conventions (docs/math.md §4.1): top view (x, z) of a camera frame, x right, z forward; a view's
 // camera pose is a PlanarPose in the keyframe camera frame; image x = x0 + f X/Z (undistorted, at
@@ -70,5 +70,16 @@ Expected<std::vector<LineLandmark>> triangulateLineLandmarks(const std::vector<V
 // Whether two lines may be the same edge seen twice: same polarity, brightness on both sides within
 // `max_difference` grey levels.
 bool lineAppearanceAgrees(const VerticalLine& a, const VerticalLine& b, double max_difference);
+
+// The lines of a reference keyframe with their positions, and a current image's lines.
+struct LineLandmarkObservation {
+  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
+  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
+  LineCamera lens;               // focal length and principal point along x [px]
+  double image_width = 0.0;      // [px]; landmarks projecting outside [0, width) are not looked for
+  std::vector<LineLandmark> landmarks;        // in the reference camera frame
+  std::vector<VerticalLine> reference_lines;  // what landmarks[i].line indexes
+  std::vector<VerticalLine> current_lines;
+};
 
 }  // namespace homography_teach_repeat

@@ -15,8 +15,10 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
+#include <memory>
 #include <string>
 
+#include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/common/status.h"
 
@@ -40,8 +42,7 @@ class HomographyNode {
   double image_timeout_s_ = 2.0;
   ImageRegistration registration_;
 
-  image_transport::ImageTransport image_transport_;
-  image_transport::CameraSubscriber camera_subscriber_;
+  std::unique_ptr<CameraSubscription> camera_subscriber_;
   image_transport::Publisher debug_image_publisher_;
   ros::Publisher homography_publisher_;
   diagnostic_updater::Updater diagnostics_;

@@ -29,6 +29,7 @@
 #include <optional>
 #include <string>
 
+#include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/RepeatConfig.h"
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/teach_repeat/experience_learning.h"
@@ -92,8 +93,7 @@ class RepeatNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_{tf_buffer_};
 
-  image_transport::ImageTransport image_transport_;
-  image_transport::CameraSubscriber camera_subscriber_;
+  std::unique_ptr<CameraSubscription> camera_subscriber_;
   image_transport::Publisher debug_publisher_;
   ros::Publisher pose_publisher_, heading_publisher_, marker_publisher_, integrity_publisher_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;

@@ -29,6 +29,7 @@
 #include <optional>
 #include <string>
 
+#include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
@@ -75,8 +76,7 @@ class TeachNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  image_transport::ImageTransport image_transport_;
-  image_transport::CameraSubscriber camera_subscriber_;
+  std::unique_ptr<CameraSubscription> camera_subscriber_;
   ros::Publisher status_publisher_;
   ros::ServiceServer finish_service_;
   diagnostic_updater::Updater diagnostics_;

@@ -27,8 +27,10 @@
 #include <deque>
 #include <mutex>
 #include <optional>
+#include <memory>
 #include <string>
 
+#include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/trifocal/trifocal_localizer.h"
@@ -57,8 +59,7 @@ class TrifocalLocalizerNode {
   double max_transfer_error_px_ = 3.0;
   TrifocalLocalizerOptions options_;
 
-  image_transport::ImageTransport image_transport_;
-  image_transport::CameraSubscriber camera_subscriber_;
+  std::unique_ptr<CameraSubscription> camera_subscriber_;
   ros::Subscriber odometry_subscriber_;
   ros::Publisher poses_publisher_;
   ros::Publisher landmarks_publisher_;

@@ -31,10 +31,10 @@
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
-#include "homography_teach_repeat/mu/heading_aided_odometry.h"
-#include "homography_teach_repeat/teach_repeat/integrity_monitor.h"
+#include "homography_teach_repeat/localization/localization_filter.h"
+#include "homography_teach_repeat/localization/integrity_monitor.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
-#include "homography_teach_repeat/teach_repeat/odometry_gate.h"
+#include "homography_teach_repeat/localization/odometry_gate.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -42,7 +42,7 @@ namespace homography_teach_repeat {
 
 struct RepeatPipelineOptions {
   RepeatOptions localization;
-  HeadingAidedOdometryOptions mu_filter;
+  LocalizationFilterOptions mu_filter;
   std::optional<OdometryGateOptions> odometry_gate = OdometryGateOptions();  // nullopt: no gate
   // The keyframe the robot starts at; -1: found by trying every keyframe on the first image.
   int start_keyframe = 0;
@@ -119,7 +119,7 @@ class RepeatPipeline {
   RepeatMode mode() const { return options_.localization.mode; }
   const RepeatPipelineOptions& options() const { return options_; }
   const RepeatStatistics& statistics() const { return statistics_; }
-  const HeadingAidedOdometry& filter() const { return filter_; }
+  const LocalizationFilter& filter() const { return filter_; }
 
  private:
   struct Localizers {
@@ -167,7 +167,7 @@ class RepeatPipeline {
   IntegrityMonitor integrity_;
   bool initialized_ = false;
   OdometryBuffer odometry_;
-  HeadingAidedOdometry filter_;
+  LocalizationFilter filter_;
   std::optional<OdometryGate> odometry_gate_;
   // fast_hd/classic: the last accepted pose's map -> odom, and the odometry then.
   std::optional<Pose2D> last_alignment_;

@@ -251,6 +251,12 @@ int main(int argc, char** argv) {
               << segment["position_error_p95_m"] << " m, heading median " << segment["heading_error_median_deg"]
               << " deg, NEES mean " << segment["nees_mean"] << "\n";
   }
+  for (const auto& u : evaluation->unreadable_frames) {
+    std::cerr << "evaluate_sequence: " << u.phase << " frame " << u.frame << " skipped: " << u.reason << "\n";
+  }
+  if (!evaluation->unreadable_frames.empty()) {
+    std::cout << "  skipped " << evaluation->unreadable_frames.size() << " frame(s) whose image could not be read\n";
+  }
   std::cout << "  failures: " << s["failures"].dump() << "; time per frame median " << s["time_per_frame_median_ms"]
             << " ms\nwrote " << json_path << "\n";
   if (args.integer("plots") != 0) eval::drawPlots(json_path, "evaluate_sequence");

@@ -4,6 +4,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
@@ -14,8 +15,10 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 
+#include "homography_teach_repeat/ros/compressed_image.h"
 #include "homography_teach_repeat/ros/conversions.h"
 
 namespace homography_teach_repeat {
@@ -50,6 +53,18 @@ std::string resolveTopic(const rosbag::Bag& bag, const std::string& topic, const
   return "";
 }
 
+// The header of an image message (raw or compressed); nullopt for another type.
+std::optional<std_msgs::Header> imageHeader(const rosbag::MessageInstance& message, bool compressed) {
+  if (compressed) {
+    const auto image = message.instantiate<sensor_msgs::CompressedImage>();
+    if (image) return image->header;
+  } else {
+    const auto image = message.instantiate<sensor_msgs::Image>();
+    if (image) return image->header;
+  }
+  return std::nullopt;
+}
+
 Expected<std::vector<StampedPose2D>> readOdometry(const rosbag::Bag& bag, const std::string& topic) {
   std::vector<StampedPose2D> samples;
   rosbag::View view(bag, rosbag::TopicQuery(topic));
@@ -74,10 +89,21 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   } catch (const std::exception& e) {
     return invalid("cannot open bag '" + path + "': " + e.what());
   }
-  const std::string image_type = "sensor_msgs/Image";
-  const std::string image_topic = resolveTopic(*bag, topics.image, image_type);
+  // The images: sensor_msgs/Image on the topic, or sensor_msgs/CompressedImage on it or on
+  // <topic>/compressed (what a camera driver publishes and rosbag record records over wifi).
+  const std::string raw_type = "sensor_msgs/Image", compressed_type = "sensor_msgs/CompressedImage";
+  std::string image_topic = resolveTopic(*bag, topics.image, raw_type);
+  bool compressed = false;
   if (image_topic.empty()) {
-    return invalid("bag '" + path + "' has no image topic '" + topics.image + "' (" + topicsOfType(*bag, image_type) + ")");
+    for (const std::string& candidate : {topics.image, topics.image + "/compressed"}) {
+      image_topic = resolveTopic(*bag, candidate, compressed_type);
+      if (!image_topic.empty()) break;
+    }
+    compressed = !image_topic.empty();
+  }
+  if (image_topic.empty()) {
+    return invalid("bag '" + path + "' has no image topic '" + topics.image + "' (" + topicsOfType(*bag, raw_type) +
+                   "; " + topicsOfType(*bag, compressed_type) + ")");
   }
   std::string info_request = topics.camera_info;
   if (info_request.empty()) info_request = topics.image.substr(0, topics.image.rfind('/') + 1) + "camera_info";
@@ -124,13 +150,13 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   {
     rosbag::View view(*bag, rosbag::TopicQuery(image_topic));
     for (const auto& message : view) {
-      const auto image = message.instantiate<sensor_msgs::Image>();
-      if (!image) continue;
-      const double stamp = image->header.stamp.toSec();
+      const auto header = imageHeader(message, compressed);
+      if (!header) continue;
+      const double stamp = header->stamp.toSec();
       if (!sequence.stamps.empty() && !(stamp > sequence.stamps.back())) continue;
       sequence.stamps.push_back(stamp);
       bag_times.push_back(message.getTime());
-      if (camera_frame.empty()) camera_frame = image->header.frame_id;
+      if (camera_frame.empty()) camera_frame = header->frame_id;
     }
   }
   if (sequence.stamps.size() < 2) return invalid("bag '" + path + "': fewer than 2 images on '" + image_topic + "'");
@@ -175,16 +201,24 @@ Expected<RecordedSequence> readBagSequence(const std::string& path, const BagTop
   sequence.mount_camera_to_level = CameraMount::cameraToLevel(base_T_optical);
   const double tilt_deg = Eigen::AngleAxisd(sequence.mount_camera_to_level).angle() * 180.0 / M_PI;
   sequence.mount_source = "tf " + topics.base_frame + " -> " + camera_frame + " (tilt " + std::to_string(tilt_deg) + " deg)";
-  sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + image_topic;
+  sequence.description = "bag '" + path + "', " + std::to_string(sequence.stamps.size()) + " images on " + image_topic + (compressed ? " (compressed)" : "");
 
   const CameraCalibration camera = *calibration;
   const std::vector<double> stamps = sequence.stamps;
-  sequence.load_image = [bag, image_topic, camera, bag_times, stamps](int index) -> Expected<SequenceImage> {
+  sequence.load_image = [bag, image_topic, compressed, camera, bag_times, stamps](int index) -> Expected<SequenceImage> {
     const auto i = static_cast<std::size_t>(index);
     rosbag::View view(*bag, rosbag::TopicQuery(image_topic), bag_times[i], bag_times[i]);
     for (const auto& message : view) {
-      const auto image = message.instantiate<sensor_msgs::Image>();
-      if (!image || std::abs(image->header.stamp.toSec() - stamps[i]) > 1e-9) continue;
+      const auto header = imageHeader(message, compressed);
+      if (!header || std::abs(header->stamp.toSec() - stamps[i]) > 1e-9) continue;
+      sensor_msgs::ImageConstPtr image;
+      if (compressed) {
+        auto decoded = ros_conversions::decompress(*message.instantiate<sensor_msgs::CompressedImage>());
+        if (!decoded) return invalid(image_topic + " image " + std::to_string(index) + ": " + decoded.status().message());
+        image = *decoded;
+      } else {
+        image = message.instantiate<sensor_msgs::Image>();
+      }
       auto converted = ros_conversions::toCvImage(image);
       if (!converted) return invalid(image_topic + " image " + std::to_string(index) + ": " + converted.status().message());
       if (converted->cols != camera.width || converted->rows != camera.height) {

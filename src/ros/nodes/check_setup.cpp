@@ -8,7 +8,8 @@
 //   rosrun homography_teach_repeat check_setup camera:=/camera [_duration:=5] [_base_frame:=base_link]
 // Parameters (private): duration [s] 5, base_frame base_link, camera_frame (default: camera_info's
 // frame_id), feature_type sift, min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2,
-// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, line_min_length_px 25.
+// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, line_min_length_px 25,
+// image_transport raw (or compressed: camera/image_raw/compressed, JPEG or PNG).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
@@ -24,6 +25,8 @@
 
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/ros/camera_subscription.h"
+#include "homography_teach_repeat/ros/compressed_image.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
 #include "homography_teach_repeat/teach_repeat/setup_check.h"
@@ -38,7 +41,17 @@ struct Settings {
   htr::FeatureType feature_type = htr::FeatureType::kSift;
   htr::SetupCheckOptions check;
   htr::VerticalLineOptions lines;
+  std::string image_transport = "raw";
 };
+
+const char* const kUsage =
+    "usage: rosrun homography_teach_repeat check_setup [camera:=/camera] [_duration:=5] [_base_frame:=base_link]\n"
+    "         [_image_transport:=raw|compressed] [_feature_type:=sift] [_camera_frame:=FRAME]\n"
+    "Listens for `duration` seconds to CAMERA/image_raw (or CAMERA/image_raw/compressed), CAMERA/camera_info, odom\n"
+    "and the tf base_frame -> camera, and says whether teach and repeat can work with what it saw:\n"
+    "each problem with how to fix it. Exit 0: ready to teach; 1: a problem blocks teaching; 2: bad parameters.\n"
+    "Other parameters: min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2 s, max_tilt 0.035 rad,\n"
+    "min_features 300, min_vertical_lines 10, line_min_length_px 25 (docs/using.md).\n";
 
 Settings readSettings(const ros::NodeHandle& p) {
   Settings s;
@@ -56,6 +69,7 @@ Settings readSettings(const ros::NodeHandle& p) {
     c.min_features = htr::readParameter(p, "min_features", c.min_features);
     c.min_vertical_lines = htr::readParameter(p, "min_vertical_lines", c.min_vertical_lines);
     s.lines.min_length_px = htr::readParameter(p, "line_min_length_px", s.lines.min_length_px);
+    s.image_transport = htr::readImageTransport(p);
     s.lines.validate();
   });
   return s;
@@ -64,6 +78,13 @@ Settings readSettings(const ros::NodeHandle& p) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string argument = argv[i];
+    if (argument == "--help" || argument == "-h") {
+      std::cout << kUsage;
+      return 0;
+    }
+  }
   ros::init(argc, argv, "check_setup");
   ros::NodeHandle nh, private_nh("~");
   Settings settings;
@@ -77,16 +98,37 @@ int main(int argc, char** argv) {
   htr::SetupObservations seen;
   sensor_msgs::ImageConstPtr last_image;
   std::string camera_frame = settings.camera_frame;
-  image_transport::ImageTransport transport(nh);
   // Images and camera_info apart (a missing camera_info must be seen as such, not as no images).
-  image_transport::Subscriber image_sub = transport.subscribe("camera/image_raw", 5, [&](const sensor_msgs::ImageConstPtr& image) {
+  const auto on_image = [&](const sensor_msgs::ImageConstPtr& image) {
     std::lock_guard<std::mutex> lock(mutex);
     seen.image_stamps.push_back(image->header.stamp.toSec());
     seen.image_width = static_cast<int>(image->width);
     seen.image_height = static_cast<int>(image->height);
     last_image = image;
     if (camera_frame.empty()) camera_frame = image->header.frame_id;
-  });
+  };
+  image_transport::ImageTransport transport(nh);
+  image_transport::Subscriber raw_sub;
+  ros::Subscriber compressed_sub;
+  std::size_t undecodable = 0;
+  std::string decode_error;
+  if (settings.image_transport == "raw") {
+    raw_sub = transport.subscribe("camera/image_raw", 5, on_image, ros::VoidPtr(), image_transport::TransportHints("raw"));
+  } else {
+    compressed_sub = nh.subscribe<sensor_msgs::CompressedImage>(
+        nh.resolveName("camera/image_raw") + "/compressed", 5, [&](const sensor_msgs::CompressedImageConstPtr& compressed) {
+          auto image = htr::ros_conversions::decompress(*compressed);
+          if (image) {
+            on_image(*image);
+            return;
+          }
+          ROS_WARN_THROTTLE(2.0, "check_setup: %s", image.status().message().c_str());
+          std::lock_guard<std::mutex> lock(mutex);
+          ++undecodable;
+          decode_error = image.status().message();
+        });
+  }
+  const std::string image_topic = raw_sub ? raw_sub.getTopic() : compressed_sub.getTopic();
   ros::Subscriber info_sub = nh.subscribe<sensor_msgs::CameraInfo>("camera/camera_info", 5, [&](const auto& info) {
     std::lock_guard<std::mutex> lock(mutex);
     seen.camera_info = htr::ros_conversions::toCalibration(*info);
@@ -108,7 +150,7 @@ int main(int argc, char** argv) {
   ros::Publisher diagnostics_pub = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1, true);
 
   ROS_INFO("check_setup: listening for %.1f s to %s, %s, %s and the tf %s -> camera", settings.duration,
-           image_sub.getTopic().c_str(), info_sub.getTopic().c_str(), odometry_sub.getTopic().c_str(),
+           image_topic.c_str(), info_sub.getTopic().c_str(), odometry_sub.getTopic().c_str(),
            settings.base_frame.c_str());
   ros::AsyncSpinner spinner(1);
   spinner.start();
@@ -147,6 +189,10 @@ int main(int argc, char** argv) {
         seen.image_problem = e.what();
       }
     }
+  }
+  if (undecodable > 0 && seen.image_problem.empty()) {
+    seen.image_problem = std::to_string(undecodable) + " compressed image(s) on " + image_topic +
+                         " could not be decoded (the last: " + decode_error + ")";
   }
   const auto problems = htr::checkSetup(seen, settings.check);
   bool blocking = false;

@@ -1,4 +1,4 @@
-#include "homography_teach_repeat/teach_repeat/integrity_monitor.h"
+#include "homography_teach_repeat/localization/integrity_monitor.h"
 
 #include <Eigen/Eigenvalues>
 

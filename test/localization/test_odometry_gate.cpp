@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "homography_teach_repeat/teach_repeat/odometry_gate.h"
+#include "homography_teach_repeat/localization/odometry_gate.h"
 
 using namespace homography_teach_repeat;
 

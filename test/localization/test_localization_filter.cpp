@@ -1,4 +1,4 @@
-#include "homography_teach_repeat/mu/heading_aided_odometry.h"
+#include "homography_teach_repeat/localization/localization_filter.h"
 
 #include <gtest/gtest.h>
 
@@ -17,9 +17,9 @@ namespace {
 
 // A robot drives a straight line of `metres` along +x of the route frame in 1 cm steps; its
 // odometry has a heading bias of `bias_per_metre` rad per metre, so the odometry believes it
-// curves. Returns the final route-frame pose from HeadingAidedOdometry, with a true heading fix
+// curves. Returns the final route-frame pose from LocalizationFilter, with a true heading fix
 // every `fix_every` steps (0: never).
-Pose2D driveStraight(double metres, double bias_per_metre, int fix_every, HeadingAidedOdometry& odometry) {
+Pose2D driveStraight(double metres, double bias_per_metre, int fix_every, LocalizationFilter& odometry) {
   const double step = 0.01;
   Pose2D odom(0.0, 0.0, 0.0);
   EXPECT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), odom).isOk());
@@ -38,8 +38,8 @@ Pose2D driveStraight(double metres, double bias_per_metre, int fix_every, Headin
   return estimate;
 }
 
-TEST(HeadingAidedOdometry, HeadingFixesRemoveTheDriftOfABiasedOdometry) {
-  HeadingAidedOdometry without, with;
+TEST(LocalizationFilter, HeadingFixesRemoveTheDriftOfABiasedOdometry) {
+  LocalizationFilter without, with;
   const Pose2D drifted = driveStraight(10.0, 0.02, 0, without);
   const Pose2D corrected = driveStraight(10.0, 0.02, 10, with);
   // Without fixes: the 0.2 rad heading error of the odometry bends the path by ~1 m.
@@ -52,8 +52,8 @@ TEST(HeadingAidedOdometry, HeadingFixesRemoveTheDriftOfABiasedOdometry) {
   EXPECT_LT(std::abs(corrected.yaw), 0.005);
 }
 
-TEST(HeadingAidedOdometry, AlignmentPlacesTheRobotAtTheGivenRoutePose) {
-  HeadingAidedOdometry odometry;
+TEST(LocalizationFilter, AlignmentPlacesTheRobotAtTheGivenRoutePose) {
+  LocalizationFilter odometry;
   const Pose2D route(2.0, -1.0, 0.5), odom(10.0, 3.0, -1.2);
   ASSERT_TRUE(odometry.align(route, odom).isOk());
   const auto pose = odometry.routePose(odom);
@@ -79,9 +79,9 @@ TEST(HeadingAidedOdometry, AlignmentPlacesTheRobotAtTheGivenRoutePose) {
   EXPECT_NEAR(mapped.y, ahead->y, 1e-12);
 }
 
-TEST(HeadingAidedOdometry, CovarianceGrowsWithTravelAndAHeadingFixShrinksTheHeading) {
-  HeadingAidedOdometryOptions options;
-  HeadingAidedOdometry odometry(options);
+TEST(LocalizationFilter, CovarianceGrowsWithTravelAndAHeadingFixShrinksTheHeading) {
+  LocalizationFilterOptions options;
+  LocalizationFilter odometry(options);
   ASSERT_TRUE(odometry.align(Pose2D(), Pose2D()).isOk());
   ASSERT_TRUE(odometry.routePose(Pose2D(2.0, 0.0, 0.0)).isOk());
   const Eigen::Matrix3d before = odometry.covariance();
@@ -103,7 +103,7 @@ TEST(HeadingAidedOdometry, CovarianceGrowsWithTravelAndAHeadingFixShrinksTheHead
 // odometry believes it is on the path. μ against the keyframe over-rotates by ~atan(tx/d):
 // as a heading fix it would turn the heading estimate by 3-9°; the filter attributes it to the
 // offset.
-TEST(HeadingAidedOdometry, MuFixesFindALateralOffsetInsteadOfAWrongHeading) {
+TEST(LocalizationFilter, MuFixesFindALateralOffsetInsteadOfAWrongHeading) {
   MuObservation wall;
   wall.reference_pose = Pose2D(1.0, 1.0, 0.0);
   wall.camera_mount = Pose2D(0.2, 0.0, 0.0);
@@ -111,9 +111,9 @@ TEST(HeadingAidedOdometry, MuFixesFindALateralOffsetInsteadOfAWrongHeading) {
   wall.wall_distance = 3.8;                      // x = 5 in the route frame
   wall.focal_px = 500.0;
   const CameraMount mount(0.2, 0.0, 0.0);
-  HeadingAidedOdometry filter;
-  HeadingAidedOdometryOptions heading_only_options;
-  HeadingAidedOdometry heading_only(heading_only_options);
+  LocalizationFilter filter;
+  LocalizationFilterOptions heading_only_options;
+  LocalizationFilter heading_only(heading_only_options);
   const Pose2D start_odom(0.0, 0.0, 0.0);
   ASSERT_TRUE(filter.align(wall.reference_pose, start_odom).isOk());
   ASSERT_TRUE(heading_only.align(wall.reference_pose, start_odom).isOk());
@@ -152,14 +152,14 @@ TEST(HeadingAidedOdometry, MuFixesFindALateralOffsetInsteadOfAWrongHeading) {
 // A wrong line association is one frame: its μ does not follow the previous frame's by what the
 // odometry predicts. It is refused, and so is the next frame (confirmed by nothing); the one after
 // is taken again.
-TEST(HeadingAidedOdometry, AMuFixMustAgreeWithThePreviousFrame) {
+TEST(LocalizationFilter, AMuFixMustAgreeWithThePreviousFrame) {
   MuObservation wall;
   wall.reference_pose = Pose2D(0.0, 0.0, 0.0);
   wall.camera_mount = Pose2D(0.2, 0.0, 0.0);
   wall.wall_distance = 3.0;
   wall.reference_id = 7;
   const CameraMount mount(0.2, 0.0, 0.0);
-  HeadingAidedOdometry filter;
+  LocalizationFilter filter;
   ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
   std::vector<StatusCode> codes;
   for (int i = 1; i <= 6; ++i) {
@@ -174,10 +174,10 @@ TEST(HeadingAidedOdometry, AMuFixMustAgreeWithThePreviousFrame) {
   EXPECT_NEAR(filter.routePose(Pose2D(0.3, 0.0, 0.0))->yaw, 0.0, 1e-3);
 }
 
-TEST(HeadingAidedOdometry, TheGateRefusesAWildFixAndALastingDisagreementResetsIt) {
-  HeadingAidedOdometryOptions options;
+TEST(LocalizationFilter, TheGateRefusesAWildFixAndALastingDisagreementResetsIt) {
+  LocalizationFilterOptions options;
   options.refused_before_reset = 3;
-  HeadingAidedOdometry odometry(options);
+  LocalizationFilter odometry(options);
   ASSERT_TRUE(odometry.align(Pose2D(), Pose2D()).isOk());
   // 0.6 rad off with a heading σ of 0.5°: refused twice, the third in a row widens the estimate
   // and is taken.
@@ -194,8 +194,8 @@ TEST(HeadingAidedOdometry, TheGateRefusesAWildFixAndALastingDisagreementResetsIt
   EXPECT_NEAR(odometry.routePose(Pose2D(0.3, 0.0, 0.0))->yaw, pose->yaw, 1e-12);
 }
 
-TEST(HeadingAidedOdometry, BadInputIsAStatusNeverAPose) {
-  HeadingAidedOdometry odometry;
+TEST(LocalizationFilter, BadInputIsAStatusNeverAPose) {
+  LocalizationFilter odometry;
   EXPECT_EQ(odometry.routePose(Pose2D()).status().code(), StatusCode::kNoConsensus);
   EXPECT_EQ(odometry.correctHeading(0.0, Pose2D()).code(), StatusCode::kNoConsensus);
   EXPECT_EQ(odometry.correctWithMu(MuObservation(), Pose2D()).code(), StatusCode::kNoConsensus);
@@ -213,24 +213,24 @@ TEST(HeadingAidedOdometry, BadInputIsAStatusNeverAPose) {
   bad_fix.wall_distance = 0.5;
   bad_fix.reference_pose = Pose2D(-5.0, 0.0, 0.0);  // the wall is behind the robot
   EXPECT_EQ(odometry.correctWithMu(bad_fix, Pose2D()).code(), StatusCode::kDegenerate);
-  HeadingAidedOdometryOptions bad;
+  LocalizationFilterOptions bad;
   bad.innovation_gate = 0.0;
-  EXPECT_THROW(HeadingAidedOdometry{bad}, std::invalid_argument);
-  bad = HeadingAidedOdometryOptions();
+  EXPECT_THROW(LocalizationFilter{bad}, std::invalid_argument);
+  bad = LocalizationFilterOptions();
   bad.position_variance_per_metre = -1.0;
-  EXPECT_THROW(HeadingAidedOdometry{bad}, std::invalid_argument);
-  bad = HeadingAidedOdometryOptions();
+  EXPECT_THROW(LocalizationFilter{bad}, std::invalid_argument);
+  bad = LocalizationFilterOptions();
   bad.max_mu_step_px = 0.0;
-  EXPECT_THROW(HeadingAidedOdometry{bad}, std::invalid_argument);
-  bad = HeadingAidedOdometryOptions();
+  EXPECT_THROW(LocalizationFilter{bad}, std::invalid_argument);
+  bad = LocalizationFilterOptions();
   bad.refused_before_reset = 0;
-  EXPECT_THROW(HeadingAidedOdometry{bad}, std::invalid_argument);
+  EXPECT_THROW(LocalizationFilter{bad}, std::invalid_argument);
 }
 
 // The wall of a keyframe from its scene plane: the horizontal part of the normal, the distance to
 // the wall's line in the (x, z) plane; and its 1D homography's μ is the filter's measurement model.
 // A floor or ceiling plane (or none) is no wall.
-TEST(HeadingAidedOdometry, KeyframeWallFromItsScenePlane) {
+TEST(LocalizationFilter, KeyframeWallFromItsScenePlane) {
   ScenePlane tilted;
   tilted.normal = Eigen::Vector3d(0.3, 0.1, 0.9).normalized();
   tilted.distance = 2.0;
@@ -307,15 +307,15 @@ struct StreetScene {
   }
 };
 
-TEST(HeadingAidedOdometry, LineLandmarksCorrectHeadingAndPosition) {
+TEST(LocalizationFilter, LineLandmarksCorrectHeadingAndPosition) {
   StreetScene street(40, 11);
   // The robot is 1 m past the keyframe, 8 cm to the left, turned 1.5° left; its odometry says it
   // went straight on.
   const Pose2D truth(1.0, 0.08, 0.026);
   street.see(truth, 0.5, 2);
-  HeadingAidedOdometryOptions options;
+  LocalizationFilterOptions options;
   options.line_position_sigma_m = 0.0;
-  HeadingAidedOdometry odometry(options);
+  LocalizationFilter odometry(options);
   ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
   const auto used = odometry.correctWithLineLandmarks(street.observation, Pose2D(1.0, 0.0, 0.0));
   ASSERT_TRUE(used.isOk()) << used.status().toString();
@@ -331,7 +331,7 @@ TEST(HeadingAidedOdometry, LineLandmarksCorrectHeadingAndPosition) {
   EXPECT_DOUBLE_EQ(odometry.distanceSinceFix(), 0.0);
 }
 
-TEST(HeadingAidedOdometry, LineLandmarksDropLinesThatDoNotFit) {
+TEST(LocalizationFilter, LineLandmarksDropLinesThatDoNotFit) {
   StreetScene street(40, 5);
   const Pose2D truth(0.8, -0.05, -0.02);
   street.see(truth, 0.5, 3);
@@ -341,7 +341,7 @@ TEST(HeadingAidedOdometry, LineLandmarksDropLinesThatDoNotFit) {
     stray.x += 9.0;
     street.observation.current_lines.push_back(stray);
   }
-  HeadingAidedOdometry odometry;
+  LocalizationFilter odometry;
   ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
   ASSERT_TRUE(odometry.correctWithLineLandmarks(street.observation, Pose2D(0.8, 0.0, 0.0)).isOk());
   const auto pose = odometry.routePose(Pose2D(0.8, 0.0, 0.0));
@@ -349,10 +349,10 @@ TEST(HeadingAidedOdometry, LineLandmarksDropLinesThatDoNotFit) {
   EXPECT_NEAR(pose->yaw, truth.yaw, 0.003);
 }
 
-TEST(HeadingAidedOdometry, LineLandmarksRefuseTooFewLinesAndBadInput) {
+TEST(LocalizationFilter, LineLandmarksRefuseTooFewLinesAndBadInput) {
   StreetScene street(4, 9);
   street.see(Pose2D(0.5, 0.0, 0.0), 0.3, 1);
-  HeadingAidedOdometry odometry;
+  LocalizationFilter odometry;
   EXPECT_EQ(odometry.correctWithLineLandmarks(street.observation, Pose2D()).status().code(), StatusCode::kNoConsensus);
   ASSERT_TRUE(odometry.align(Pose2D(0.0, 0.0, 0.0), Pose2D(0.0, 0.0, 0.0)).isOk());
   const auto few = odometry.correctWithLineLandmarks(street.observation, Pose2D(0.5, 0.0, 0.0));
@@ -369,12 +369,12 @@ TEST(HeadingAidedOdometry, LineLandmarksRefuseTooFewLinesAndBadInput) {
 
 // A pose fix (hybrid mode): the Kalman update with H = I. With diagonal P and R each component is
 // the inverse-variance mean; the NIS is νᵀ(P + R)⁻¹ν; align() with a covariance starts from it.
-TEST(HeadingAidedOdometry, PoseFixIsTheKalmanUpdateWithItsInnovation) {
-  HeadingAidedOdometryOptions options;
+TEST(LocalizationFilter, PoseFixIsTheKalmanUpdateWithItsInnovation) {
+  LocalizationFilterOptions options;
   options.position_variance_per_metre = 0.0;
   options.heading_variance_per_metre = 0.0;
   options.heading_variance_per_radian = 0.0;
-  HeadingAidedOdometry filter(options);
+  LocalizationFilter filter(options);
   const Eigen::Matrix3d prior = Eigen::Vector3d(0.04, 0.01, 0.0025).asDiagonal();
   ASSERT_TRUE(filter.align(Pose2D(1.0, 2.0, 0.3), Pose2D(0.0, 0.0, 0.0), prior).isOk());
   EXPECT_TRUE(filter.covariance().isApprox(prior));
@@ -400,7 +400,7 @@ TEST(HeadingAidedOdometry, PoseFixIsTheKalmanUpdateWithItsInnovation) {
   EXPECT_NEAR(filter.covariance()(2, 2), 0.00125, 1e-12);
   EXPECT_DOUBLE_EQ(filter.distanceSinceFix(), 0.0);
   // The yaw innovation is wrapped: a measurement at -π + 0.01 against π - 0.01 is 0.02 away.
-  HeadingAidedOdometry wrapped(options);
+  LocalizationFilter wrapped(options);
   ASSERT_TRUE(wrapped.align(Pose2D(0.0, 0.0, M_PI - 0.01), Pose2D(), prior).isOk());
   ASSERT_TRUE(wrapped.correctWithPose(Pose2D(0.0, 0.0, -M_PI + 0.01), R, Pose2D()).isOk());
   EXPECT_NEAR(std::abs(wrapToPi(wrapped.routePose(Pose2D())->yaw - M_PI)), 0.0, 1e-9);
@@ -408,10 +408,10 @@ TEST(HeadingAidedOdometry, PoseFixIsTheKalmanUpdateWithItsInnovation) {
 
 // Repeated fixes standing still do not shrink the covariance below pose_common_fraction of a fix's
 // (their shared error does not average away); a fix beyond pose_innovation_gate is refused.
-TEST(HeadingAidedOdometry, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRefused) {
-  HeadingAidedOdometryOptions options;
+TEST(LocalizationFilter, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRefused) {
+  LocalizationFilterOptions options;
   options.pose_common_fraction = 0.5;
-  HeadingAidedOdometry filter(options);
+  LocalizationFilter filter(options);
   const Eigen::Matrix3d R = Eigen::Vector3d(1e-4, 4e-4, 1e-5).asDiagonal();
   ASSERT_TRUE(filter.align(Pose2D(), Pose2D(), R).isOk());
   for (int i = 0; i < 50; ++i) ASSERT_TRUE(filter.correctWithPose(Pose2D(0.001, 0.0, 0.0), R, Pose2D()).isOk());
@@ -419,9 +419,9 @@ TEST(HeadingAidedOdometry, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRe
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(lacking).eigenvalues().minCoeff(), -1e-15);
   EXPECT_LE(filter.covariance()(0, 0), R(0, 0));
   // Without the common share the covariance would have shrunk fifty-fold.
-  HeadingAidedOdometryOptions independent = options;
+  LocalizationFilterOptions independent = options;
   independent.pose_common_fraction = 0.0;
-  HeadingAidedOdometry naive(independent);
+  LocalizationFilter naive(independent);
   ASSERT_TRUE(naive.align(Pose2D(), Pose2D(), R).isOk());
   for (int i = 0; i < 50; ++i) ASSERT_TRUE(naive.correctWithPose(Pose2D(), R, Pose2D()).isOk());
   EXPECT_LT(naive.covariance()(0, 0), R(0, 0) / 40.0);
@@ -440,10 +440,10 @@ TEST(HeadingAidedOdometry, RepeatedPoseFixesKeepTheirCommonErrorAndWildOnesAreRe
 // The part of a fix's covariance that every fix against the keyframe shares (its plane's own
 // error: RepeatEstimate::model_covariance) stays whole however many fixes are fused; only the rest
 // (this image's pixel noise) is shared by pose_common_fraction.
-TEST(HeadingAidedOdometry, ThePlanesSharedErrorIsNotAveragedAway) {
-  HeadingAidedOdometryOptions options;
+TEST(LocalizationFilter, ThePlanesSharedErrorIsNotAveragedAway) {
+  LocalizationFilterOptions options;
   options.pose_common_fraction = 0.5;
-  HeadingAidedOdometry filter(options);
+  LocalizationFilter filter(options);
   const Eigen::Matrix3d pixel = Eigen::Vector3d(1e-4, 4e-4, 1e-5).asDiagonal();
   Eigen::Matrix3d plane;  // a leaning wall: depth and heading move together
   plane << 4e-4, 0.0, 1e-5, 0.0, 1e-6, 0.0, 1e-5, 0.0, 1e-6;
@@ -453,7 +453,7 @@ TEST(HeadingAidedOdometry, ThePlanesSharedErrorIsNotAveragedAway) {
   const Eigen::Matrix3d lacking = filter.covariance() - (plane + 0.5 * pixel);
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(lacking).eigenvalues().minCoeff(), -1e-15);
   // Without it, half of the plane's share would have gone: x's variance 0.5 R = 2.5e-4 < 4.5e-4.
-  HeadingAidedOdometry fraction_only(options);
+  LocalizationFilter fraction_only(options);
   ASSERT_TRUE(fraction_only.align(Pose2D(), Pose2D(), R).isOk());
   for (int i = 0; i < 50; ++i) ASSERT_TRUE(fraction_only.correctWithPose(Pose2D(0.001, 0.0, 0.0), R, Pose2D()).isOk());
   EXPECT_LT(fraction_only.covariance()(0, 0), 0.6 * R(0, 0));
@@ -463,8 +463,8 @@ TEST(HeadingAidedOdometry, ThePlanesSharedErrorIsNotAveragedAway) {
   EXPECT_EQ(filter.correctWithPose(Pose2D(), R, Pose2D(), bad).status().code(), StatusCode::kInvalidInput);
 }
 
-TEST(HeadingAidedOdometry, PoseFixBadInputIsRefused) {
-  HeadingAidedOdometry filter;
+TEST(LocalizationFilter, PoseFixBadInputIsRefused) {
+  LocalizationFilter filter;
   const Eigen::Matrix3d R = Eigen::Matrix3d::Identity() * 1e-4;
   EXPECT_EQ(filter.correctWithPose(Pose2D(), R, Pose2D()).status().code(), StatusCode::kNoConsensus);  // not aligned
   ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
@@ -479,8 +479,8 @@ TEST(HeadingAidedOdometry, PoseFixBadInputIsRefused) {
 }
 
 // Every scalar fix leaves its innovation, accepted or refused by the gate.
-TEST(HeadingAidedOdometry, ScalarFixesLeaveTheirInnovation) {
-  HeadingAidedOdometry filter;
+TEST(LocalizationFilter, ScalarFixesLeaveTheirInnovation) {
+  LocalizationFilter filter;
   ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
   ASSERT_TRUE(filter.correctHeading(0.005, Pose2D()).isOk());
   auto taken = filter.takeInnovation();

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "homography_teach_repeat/teach_repeat/integrity_monitor.h"
+#include "homography_teach_repeat/localization/integrity_monitor.h"
 
 using namespace homography_teach_repeat;
 

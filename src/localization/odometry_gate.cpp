@@ -1,4 +1,4 @@
-#include "homography_teach_repeat/teach_repeat/odometry_gate.h"
+#include "homography_teach_repeat/localization/odometry_gate.h"
 
 #include <cmath>
 #include <cstdio>

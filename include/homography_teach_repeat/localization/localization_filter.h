@@ -1,4 +1,5 @@
-// The robot pose of the μ mode (paper 002 §5): wheel odometry corrected by the μ of vertical lines.
+// The localization filter of the repeat (modes hybrid and mu; docs/math.md §7): wheel odometry
+// fused with Fast-HD pose fixes, μ fixes of vertical lines (paper 002 §5) and line landmark fixes.
 // An extended Kalman filter on the route-frame base pose (x, y, yaw):
 //  - predict: the odometry increment since the last reading, composed onto the estimate; the
 //    covariance grows by `position_variance_per_metre` (along and across the motion) and
@@ -41,12 +42,13 @@
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/mu/heading_1d.h"
 #include "homography_teach_repeat/mu/line_landmarks.h"
+#include "homography_teach_repeat/mu/wall_mu.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/common/status.h"
 
 namespace homography_teach_repeat {
 
-struct HeadingAidedOdometryOptions {
+struct LocalizationFilterOptions {
   double initial_position_variance = 0.0025;   // [m²] at align() ((5 cm)²: placed at the keyframe)
   double position_variance_per_metre = 0.0025;  // [m²/m] (5 cm after 1 m)
   double heading_fix_variance = 7.6e-5;         // [rad²] ((0.5°)²): align() and correctHeading()
@@ -100,39 +102,6 @@ struct HeadingAidedOdometryOptions {
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
 
-// A μ measured against a reference keyframe with a known wall.
-struct MuObservation {
-  double mu = 0.0;               // [px], centred (HeadingCorrection::mu)
-  double variance = 4.0;         // [px²]; raised to min_mu_variance
-  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
-  Eigen::Vector2d wall_normal = Eigen::Vector2d::UnitY();  // (nx, nz) in the reference camera frame, unit
-  double wall_distance = 1.0;    // [m] > 0
-  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
-  double focal_px = 500.0;       // the μ focal length [px]
-  int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
-};
-
-// The lines of a reference keyframe with their positions, and a current image's lines.
-struct LineLandmarkObservation {
-  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
-  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
-  LineCamera lens;               // focal length and principal point along x [px]
-  double image_width = 0.0;      // [px]; landmarks projecting outside [0, width) are not looked for
-  std::vector<LineLandmark> landmarks;        // in the reference camera frame
-  std::vector<VerticalLine> reference_lines;  // what landmarks[i].line indexes
-  std::vector<VerticalLine> current_lines;
-};
-
-// The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
-// camera frame) for a μ observation (mu left 0); nullopt without a plane or for a plane that is
-// not a wall (|(nx, nz)| <= 0.5: floor or ceiling, where μ says nothing about it).
-std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
-                                      const Pose2D& camera_mount, double focal_px, int reference_id);
-// The centred 1D homography the observation's wall induces between the reference camera and the
-// camera of a robot at `base` (route frame), docs/math.md §4.4 (planeHomography1d); its h12/h22 is the
-// μ the filter predicts, and it tells the line matcher where the reference lines should be.
-Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
-
 // The normalized innovation squared of one fix: νᵀ S⁻¹ ν with `dof` components (a consistent
 // filter gives a mean of `dof`), and whether the fix was taken.
 struct FilterInnovation {
@@ -141,10 +110,10 @@ struct FilterInnovation {
   bool accepted = false;
 };
 
-class HeadingAidedOdometry {
+class LocalizationFilter {
  public:
   // Throws std::invalid_argument on invalid options.
-  explicit HeadingAidedOdometry(const HeadingAidedOdometryOptions& options = {});
+  explicit LocalizationFilter(const LocalizationFilterOptions& options = {});
 
   // The robot is at `route_pose` while its odometry reads `odom_pose`. kInvalidInput on
   // non-finite input.
@@ -217,7 +186,7 @@ class HeadingAidedOdometry {
     Pose2D odom;
   };
 
-  HeadingAidedOdometryOptions options_;
+  LocalizationFilterOptions options_;
   std::optional<PreviousMu> previous_mu_;
   bool aligned_ = false;
   Pose2D estimate_;

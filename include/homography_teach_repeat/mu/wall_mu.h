@@ -1,0 +1,39 @@
+// The μ of a reference keyframe's wall (docs/math.md §4.4-4.5): what the localization filter
+// (localization/localization_filter.h) measures a μ fix against. μ = h12/h22 of the 1D homography
+// the wall induces between the reference camera and the current one; it depends on the heading and
+// on the lateral offset (μ ≈ f (θ + tx/d)).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <optional>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/geometry/scene_plane.h"
+
+namespace homography_teach_repeat {
+
+// A μ measured against a reference keyframe with a known wall.
+struct MuObservation {
+  double mu = 0.0;               // [px], centred (HeadingCorrection::mu)
+  double variance = 4.0;         // [px²]; raised to min_mu_variance
+  Pose2D reference_pose;         // route-frame base pose of the reference keyframe
+  Eigen::Vector2d wall_normal = Eigen::Vector2d::UnitY();  // (nx, nz) in the reference camera frame, unit
+  double wall_distance = 1.0;    // [m] > 0
+  Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
+  double focal_px = 500.0;       // the μ focal length [px]
+  int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
+};
+
+// The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
+// camera frame) for a μ observation (mu left 0); nullopt without a plane or for a plane that is
+// not a wall (|(nx, nz)| <= 0.5: floor or ceiling, where μ says nothing about it).
+std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::optional<ScenePlane>& plane,
+                                      const Pose2D& camera_mount, double focal_px, int reference_id);
+// The centred 1D homography the observation's wall induces between the reference camera and the
+// camera of a robot at `base` (route frame), docs/math.md §4.4 (planeHomography1d); its h12/h22 is the
+// μ the filter predicts, and it tells the line matcher where the reference lines should be.
+Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
+
+}  // namespace homography_teach_repeat

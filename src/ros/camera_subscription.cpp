@@ -1,0 +1,90 @@
+#include "homography_teach_repeat/ros/camera_subscription.h"
+
+#include <image_transport/camera_common.h>
+
+#include <stdexcept>
+#include <utility>
+
+#include "homography_teach_repeat/ros/compressed_image.h"
+
+namespace homography_teach_repeat {
+
+std::string readImageTransport(const ros::NodeHandle& private_nh) {
+  std::string transport = "raw";
+  private_nh.param<std::string>("image_transport", transport, transport);
+  if (transport != "raw" && transport != "compressed") {
+    throw std::invalid_argument("parameter '" + private_nh.resolveName("image_transport") + "' is '" + transport +
+                                "': 'raw' (sensor_msgs/Image) or 'compressed' (sensor_msgs/CompressedImage, JPEG or PNG)");
+  }
+  return transport;
+}
+
+CameraSubscription::CameraSubscription(ros::NodeHandle nh, const std::string& image_topic, uint32_t queue_size,
+                                       const std::string& transport, ImageCallback on_image, ErrorCallback on_error)
+    : transport_(transport), on_image_(std::move(on_image)), on_error_(std::move(on_error)) {
+  if (transport == "raw") {
+    image_transport::ImageTransport it(nh);
+    raw_ = it.subscribeCamera(
+        image_topic, queue_size,
+        [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) {
+          on_image_(image, info);
+        },
+        ros::VoidPtr(), image_transport::TransportHints("raw"));
+    return;
+  }
+  if (transport != "compressed") {
+    throw std::invalid_argument("image transport '" + transport + "': 'raw' or 'compressed'");
+  }
+  const std::string base_topic = nh.resolveName(image_topic);
+  compressed_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CompressedImage>>(
+      nh, base_topic + "/compressed", queue_size);
+  camera_info_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
+      nh, image_transport::getCameraInfoTopic(base_topic), queue_size);
+  synchronizer_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::CompressedImage, sensor_msgs::CameraInfo>>(
+      *compressed_, *camera_info_, queue_size);
+  synchronizer_->registerCallback(&CameraSubscription::onCompressed, this);
+}
+
+void CameraSubscription::onCompressed(const sensor_msgs::CompressedImageConstPtr& image,
+                                      const sensor_msgs::CameraInfoConstPtr& info) {
+  auto decoded = ros_conversions::decompress(*image);
+  if (!decoded) {
+    ++undecodable_;
+    const std::string reason = "image at " + std::to_string(image->header.stamp.toSec()) + " s on " +
+                               compressed_->getTopic() + " dropped: " + decoded.status().message();
+    {
+      std::lock_guard<std::mutex> lock(error_mutex_);
+      last_error_ = reason;
+      last_error_time_ = ros::Time::now();
+    }
+    if (on_error_) on_error_(reason);
+    return;
+  }
+  on_image_(*decoded, info);
+}
+
+std::string CameraSubscription::getTopic() const {
+  return transport_ == "raw" ? raw_.getTopic() : compressed_->getTopic();
+}
+
+std::string CameraSubscription::lastDecodeError() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return last_error_;
+}
+
+ros::Time CameraSubscription::lastDecodeErrorTime() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return last_error_time_;
+}
+
+void CameraSubscription::addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat, double recent) const {
+  stat.add("image transport", transport_ + " (" + getTopic() + ")");
+  if (transport_ != "compressed") return;
+  stat.add("undecodable images dropped", undecodableFrames());
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  if (!last_error_.empty() && (ros::Time::now() - last_error_time_).toSec() <= recent) {
+    stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_);
+  }
+}
+
+}  // namespace homography_teach_repeat
