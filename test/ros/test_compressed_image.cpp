@@ -13,7 +13,7 @@
 
 #include "homography_teach_repeat/ros/compressed_image.h"
 #include "homography_teach_repeat/ros/conversions.h"
-#include "test_images.h"
+#include "support/test_images.h"
 
 namespace htr = homography_teach_repeat;
 using htr::ros_conversions::decompress;
