@@ -1,6 +1,6 @@
 #include "homography_teach_repeat/ros/conversions.h"
 
-#include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
+#include "homography_teach_repeat/ros/repeat_visualization.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>

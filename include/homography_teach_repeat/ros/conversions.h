@@ -68,7 +68,7 @@ HomographyStamped toMsg(const RobustHomographyResult& homography, int tentative_
 geometry_msgs::PoseWithCovariance toPoseWithCovariance(const Pose2D& pose, const Eigen::Matrix3d* covariance,
                                                        double unobserved_variance);
 // The route for rviz in `frame_id`: an arrow per keyframe (namespace "keyframes", the current one
-// in orange) and its scene plane as a 2 m wall segment ("planes"; teach_repeat/repeat_visualization.h).
+// in orange) and its scene plane as a 2 m wall segment ("planes"; ros/repeat_visualization.h).
 visualization_msgs::MarkerArray routeMarkers(const Route& route, int current_keyframe, const std::string& frame_id,
                                              const ros::Time& stamp);
 

@@ -34,7 +34,7 @@
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/teach_repeat/experience_learning.h"
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
-#include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
+#include "homography_teach_repeat/ros/repeat_visualization.h"
 
 namespace homography_teach_repeat {
 

@@ -6,9 +6,9 @@
 //    frame when start_keyframe is -1).
 //  - fast_hd / classic: the visual pose, refused when it disagrees with the odometry motion since
 //    the last accepted pose (OdometryGate; docs/reliability.md).
-//  - mu: the heading-aided odometry (an EKF on the odometry, docs/math.md §4.4-4.5) corrected by
-//    the frame's μ through the keyframe wall's model; the pose is the filter's. Frames without a
-//    fix carry the pose on odometry alone for at most max_unaided_distance metres.
+//  - mu: the localization filter (localization/localization_filter.h: an EKF on the odometry,
+//    docs/math.md §4.4-4.5) corrected by the frame's μ through the keyframe wall's model; the pose
+//    is the filter's. Frames without a fix carry the pose on odometry alone for at most max_unaided_distance metres.
 //  - hybrid (docs/math.md §7): the same filter takes, frame by frame, what the place offers: the
 //    Fast-HD pose with its covariance where the keyframe has a plane and the pose passes its
 //    checks and the odometry gate (§7.1), the μ fix (or line landmark fix) where it has vertical
@@ -122,6 +122,12 @@ class RepeatPipeline {
   const LocalizationFilter& filter() const { return filter_; }
 
  private:
+  // The odometry of an image's instant may arrive after the image (a simulator publishes both at
+  // once); for the odometry gate and the filter (its prediction, fixes and pose) the newest sample
+  // is close enough within this lag [s]. (With poseAt, a frame processed before its odometry had
+  // arrived got no pose at all in the simulator's hybrid runs: every other covered frame was LOST.)
+  static constexpr double kOdometryLag = 0.1;
+
   struct Localizers {
     RepeatLocalizer primary;
     std::optional<RepeatLocalizer> lines;  // hybrid with both planes and lines

@@ -15,6 +15,7 @@
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/homography/local_stretch.h"
 #include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -114,23 +115,6 @@ struct RouteAudit {
   int weak_for_mu = 0;
   std::vector<std::string> notes;  // route-wide (e.g. no planes at all)
 };
-
-// How much larger than between views that differ by a similarity the error of matches is, where a
-// homography H (reference pixel to current pixel) maps `pixels` of the reference: a SIFT-like
-// keypoint is invariant to a similarity of its patch, not to a stretch, and is located worse the
-// more the other view stretches it. At each pixel the local map is H's 2x2 Jacobian there, its
-// stretch a = s1/s2 (its singular values; 1 for a similarity), the noise 1 + gain (a − 1); the
-// root mean square over the pixels (the estimator takes one σ). 1 for no pixel or gain 0.
-double matchStretchNoiseScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double gain);
-
-// The stretch a = s1/s2 ≥ 1 of H's local map at a reference pixel (the singular values of its 2x2
-// Jacobian there; 1 for a similarity); nullopt where H sends the pixel to infinity.
-std::optional<double> localStretch(const Eigen::Matrix3d& H, const Eigen::Vector2d& pixel);
-
-// The chance that a feature at one of `pixels` matches, over its chance in an unstretched view,
-// averaged over the pixels: exp(−decay (a − 1)), a the local stretch of H there (localStretch).
-// 1 for no pixel or decay 0.
-double matchChanceScale(const Eigen::Matrix3d& H, const std::vector<Eigen::Vector2d>& pixels, double decay);
 
 // kInvalidInput for invalid options, a route without keyframes, or a corrupt keyframe file.
 Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options);

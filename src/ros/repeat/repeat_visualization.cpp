@@ -1,4 +1,4 @@
-#include "homography_teach_repeat/teach_repeat/repeat_visualization.h"
+#include "homography_teach_repeat/ros/repeat_visualization.h"
 
 #include <opencv2/imgproc.hpp>
 

@@ -10,69 +10,10 @@
 
 #include "homography_teach_repeat/teach_repeat/route.h"
 #include "homography_teach_repeat/ros/conversions.h"
+#include "homography_teach_repeat/ros/controller_parameters.h"
 #include "homography_teach_repeat/ros/parameters.h"
 
 namespace homography_teach_repeat {
-namespace {
-
-RouteFollowerOptions readFollowerOptions(const ros::NodeHandle& nh) {
-  RouteFollowerOptions o;
-  PotentialFieldParameters& p = o.controller;
-  readParameters(nh, [&] {
-    p.viscous_friction = readParameter(nh, "viscous_friction", p.viscous_friction);
-    p.inertia_ratio = readParameter(nh, "inertia_ratio", p.inertia_ratio);
-    p.lever = readParameter(nh, "lever", p.lever);
-    p.attractive_gain = readParameter(nh, "attractive_gain", p.attractive_gain);
-    p.attraction_saturation = readParameter(nh, "attraction_saturation", p.attraction_saturation);
-    p.repulsive_gain = readParameter(nh, "repulsive_gain", p.repulsive_gain);
-    p.repulsive_range = readParameter(nh, "repulsive_range", p.repulsive_range);
-    p.max_linear_velocity = readParameter(nh, "max_linear_velocity", p.max_linear_velocity);
-    p.max_angular_velocity = readParameter(nh, "max_angular_velocity", p.max_angular_velocity);
-    p.max_linear_acceleration = readParameter(nh, "max_linear_acceleration", p.max_linear_acceleration);
-    p.max_angular_acceleration =
-        readParameter(nh, "max_angular_acceleration", p.max_angular_acceleration);
-    p.allow_reverse = readParameter(nh, "allow_reverse", p.allow_reverse);
-    p.goal_tolerance = readParameter(nh, "goal_tolerance", p.goal_tolerance);
-    p.goal_heading_tolerance = readParameter(nh, "goal_heading_tolerance", p.goal_heading_tolerance);
-    o.pose_timeout = readParameter(nh, "pose_timeout", o.pose_timeout);
-    o.odometry_timeout = readParameter(nh, "odometry_timeout", o.odometry_timeout);
-    o.carried_pose_timeout = readParameter(nh, "carried_pose_timeout", o.carried_pose_timeout);
-    o.start_index = readParameter(nh, "start_index", o.start_index);
-    o.end_index = readParameter(nh, "end_index", o.end_index);
-    o.laps = readParameter(nh, "laps", o.laps);
-    o.require_goal_heading = readParameter(nh, "require_goal_heading", o.require_goal_heading);
-    o.return_to_start = readParameter(nh, "return_to_start", o.return_to_start);
-    o.closed_route_gap = readParameter(nh, "closed_route_gap", o.closed_route_gap);
-    o.corner_radius = readParameter(nh, "corner_radius", o.corner_radius);
-    o.corner_tolerance = readParameter(nh, "corner_tolerance", o.corner_tolerance);
-    o.turn_in_place_angle = readParameter(nh, "turn_in_place_angle", o.turn_in_place_angle);
-    o.turn_in_place_exit_angle = readParameter(nh, "turn_in_place_exit_angle", o.turn_in_place_exit_angle);
-    o.straight_leg_angle = readParameter(nh, "straight_leg_angle", o.straight_leg_angle);
-    o.corner_deceleration = readParameter(nh, "corner_deceleration", o.corner_deceleration);
-    o.final_approach_distance = readParameter(nh, "final_approach_distance", o.final_approach_distance);
-    o.final_goal_tolerance = readParameter(nh, "final_goal_tolerance", o.final_goal_tolerance);
-    o.final_turn_angle = readParameter(nh, "final_turn_angle", o.final_turn_angle);
-    o.final_approach_gain = readParameter(nh, "final_approach_gain", o.final_approach_gain);
-    o.final_turn_gain = readParameter(nh, "final_turn_gain", o.final_turn_gain);
-    o.align_final_heading = readParameter(nh, "align_final_heading", o.align_final_heading);
-    o.final_heading_tolerance = readParameter(nh, "final_heading_tolerance", o.final_heading_tolerance);
-    o.degraded_speed_factor = readParameter(nh, "degraded_speed_factor", o.degraded_speed_factor);
-    o.lost_search_delay = readParameter(nh, "lost_search_delay", o.lost_search_delay);
-    o.lost_search_angle = readParameter(nh, "lost_search_angle", o.lost_search_angle);
-    o.lost_search_velocity = readParameter(nh, "lost_search_velocity", o.lost_search_velocity);
-    o.robot_radius = readParameter(nh, "robot_radius", o.robot_radius);
-    o.obstacle_stop_gap = readParameter(nh, "obstacle_stop_gap", o.obstacle_stop_gap);
-    o.obstacle_slow_gap = readParameter(nh, "obstacle_slow_gap", o.obstacle_slow_gap);
-    o.pass_offset = readParameter(nh, "pass_offset", o.pass_offset);
-    o.pass_clearance = readParameter(nh, "pass_clearance", o.pass_clearance);
-    o.pass_lookahead = readParameter(nh, "pass_lookahead", o.pass_lookahead);
-    o.validate();
-  });
-  return o;
-}
-
-}  // namespace
-
 ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
     : nh_(nh), private_nh_(private_nh), diagnostics_(nh, private_nh) {
   const bool autostart = readParameter(private_nh, "autostart", true);
@@ -92,7 +33,7 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
     throw std::runtime_error("parameter '" + private_nh.resolveName("stop_abort_timeout") + "' must be > 0 s");
   }
   control_period_ = 1.0 / rate;
-  options_ = readFollowerOptions(private_nh);
+  options_ = readRouteFollowerOptions(private_nh);
   if (autostart) startRoute(default_directory_, options_);
   command_publisher_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 1);
   state_publisher_ = private_nh_.advertise<std_msgs::String>("state", 1, /*latch=*/true);
@@ -175,95 +116,6 @@ ControllerNode::~ControllerNode() {
     result.reason = "controller_node shut down";
     action_server_->setAborted(result, result.reason);
   }
-}
-
-void ControllerNode::startRoute(const std::string& directory, const RouteFollowerOptions& options) {
-  if (directory.empty()) throw std::runtime_error("no route directory (goal and ~route_directory are empty)");
-  const auto route = loadRoute(directory);
-  if (!route) throw std::runtime_error(route.status().message());
-  std::vector<Pose2D> goals;
-  for (const auto& k : route->keyframes) goals.push_back(k.pose);
-  try {
-    RouteFollower follower(goals, options);
-    std::lock_guard<std::mutex> lock(mutex_);
-    follower_.emplace(std::move(follower));
-    last_output_ = FollowOutput();
-    stopped_since_ = -1.0;
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(std::string("route '") + directory + "': " + e.what());
-  }
-}
-
-void ControllerNode::onGoal() {
-  const auto goal = action_server_->acceptNewGoal();
-  RouteFollowerOptions options = options_;
-  options.start_index = goal->start_index;
-  options.end_index = goal->end_index;
-  options.laps = goal->laps == 0 ? 1 : goal->laps;
-  const std::string directory = goal->route_directory.empty() ? default_directory_ : goal->route_directory;
-  try {
-    options.validate();
-    startRoute(directory, options);
-  } catch (const std::exception& e) {
-    RepeatRouteResult result;
-    result.reached = false;
-    result.reason = std::string("goal refused: ") + e.what();
-    ROS_ERROR("controller_node: %s", result.reason.c_str());
-    action_server_->setAborted(result, result.reason);
-    return;
-  }
-  ROS_INFO("controller_node: repeat_route goal: '%s' keyframes %d..%d, %d lap(s)", directory.c_str(),
-           options.start_index, options.end_index, options.laps);
-}
-
-void ControllerNode::onPreempt() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    follower_.reset();
-  }
-  command_publisher_.publish(geometry_msgs::Twist());
-  publishState("idle: goal preempted");
-  RepeatRouteResult result;
-  result.reached = false;
-  result.reason = "preempted";
-  result.progress = 100.0 * last_output_.progress;
-  action_server_->setPreempted(result, result.reason);
-}
-
-void ControllerNode::onReconfigure(ControllerConfig& config, uint32_t /*level*/) {
-  RouteFollowerOptions options = options_;
-  PotentialFieldParameters& p = options.controller;
-  p.viscous_friction = config.viscous_friction;
-  p.inertia_ratio = config.inertia_ratio;
-  p.lever = config.lever;
-  p.attractive_gain = config.attractive_gain;
-  p.attraction_saturation = config.attraction_saturation;
-  p.repulsive_gain = config.repulsive_gain;
-  p.repulsive_range = config.repulsive_range;
-  p.max_linear_velocity = config.max_linear_velocity;
-  p.max_angular_velocity = config.max_angular_velocity;
-  p.max_linear_acceleration = config.max_linear_acceleration;
-  p.max_angular_acceleration = config.max_angular_acceleration;
-  p.allow_reverse = config.allow_reverse;
-  p.goal_tolerance = config.goal_tolerance;
-  p.goal_heading_tolerance = config.goal_heading_tolerance;
-  options.require_goal_heading = config.require_goal_heading;
-  options.pose_timeout = config.pose_timeout;
-  try {
-    options.validate();
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (follower_) follower_->retune(options);
-    options_.controller = options.controller;
-    options_.require_goal_heading = options.require_goal_heading;
-    options_.pose_timeout = options.pose_timeout;
-  } catch (const std::invalid_argument& e) {
-    ROS_ERROR("controller_node: reconfiguration refused: %s", e.what());
-    config.pose_timeout = options_.pose_timeout;  // dynamic_reconfigure reports the values kept
-    config.goal_tolerance = options_.controller.goal_tolerance;
-    return;
-  }
-  ROS_INFO("controller_node: reconfigured: v_max %.2f m/s, w_max %.2f rad/s, epsilon %.2f m, pose_timeout %.2f s",
-           p.max_linear_velocity, p.max_angular_velocity, p.goal_tolerance, options.pose_timeout);
 }
 
 void ControllerNode::publishState(const std::string& state) {
