@@ -6,6 +6,8 @@
 // (evaluate_sequence's end-to-end test teaches and repeats from it). --compressed jpeg|png records
 // sensor_msgs/CompressedImage on camera/image_raw/compressed instead (as a camera driver publishes
 // it), and --corrupt-frame K cuts frame K's JPEG/PNG short (a frame the readers must skip).
+// --teach records the taught path instead (16 images 10 cm apart, as make_test_route teaches it
+// without ROS, odometry = ground truth): the teach run of teach_repeat_compressed_bag.test.
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -41,6 +43,7 @@ nav_msgs::Odometry odometryMessage(const Pose2D& pose, const ros::Time& stamp, c
 
 int main(int argc, char** argv) {
   bool with_tf = false;
+  bool teach = false;
   int frames = 10;
   std::string compression;  // "", "jpeg" or "png"
   int corrupt_frame = -1;
@@ -49,6 +52,9 @@ int main(int argc, char** argv) {
     const std::string argument = argv[i];
     if (argument == "--tf") {
       with_tf = true;
+    } else if (argument == "--teach") {
+      teach = true;
+      frames = 16;
     } else if (argument == "--frames" && i + 1 < argc) {
       frames = std::atoi(argv[++i]);
     } else if (argument == "--compressed" && i + 1 < argc) {
@@ -61,7 +67,7 @@ int main(int argc, char** argv) {
   }
   if (path.empty() || frames < 2 || (compression != "" && compression != "jpeg" && compression != "png") ||
       (corrupt_frame >= 0 && compression.empty())) {
-    std::cerr << "usage: make_test_bag FILE.bag [--tf] [--frames N >= 2] [--compressed jpeg|png [--corrupt-frame K]]\n";
+    std::cerr << "usage: make_test_bag FILE.bag [--tf] [--teach | --frames N >= 2] [--compressed jpeg|png [--corrupt-frame K]]\n";
     return 2;
   }
   try {
@@ -83,8 +89,9 @@ int main(int argc, char** argv) {
       bag.write("/tf_static", mount.header.stamp, message);
     }
     for (int i = 0; i < frames; ++i) {
-      const double s = 0.05 + 1.1 / frames * i;  // metres along the taught path
-      const PlanarPose camera_pose(0.08 * s + 0.06, s, 0.04 * s + 0.03);
+      // Metres along the taught path; the repeat runs 6 cm beside it, turned 0.03 rad.
+      const double s = teach ? 0.1 * i : 0.05 + 1.1 / frames * i;
+      const PlanarPose camera_pose = teach ? PlanarPose(0.08 * s, s, 0.04 * s) : PlanarPose(0.08 * s + 0.06, s, 0.04 * s + 0.03);
       const Pose2D truth = cameraAxesToRep103(camera_pose);
       const ros::Time stamp(1000.0 + 0.5 * i);  // 2 Hz
       // Odometry at 20 Hz around each image (a drifting odometry would do as well: repeat_node

@@ -61,9 +61,15 @@ int main(int argc, char** argv) {
       break;
     }
   }
+  const char* const usage =
+      "usage: make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=0] WORLD.yaml DIRECTORY FEATURE START_X,START_Y "
+      "X1,Y1 [X2,Y2 ...]\nTeaches a route in a simulator world without ROS (as sim_teach.launch does) into DIRECTORY.\n";
+  if (argc == 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+    std::cout << usage;
+    return 0;
+  }
   if (argc < 6) {
-    std::cerr << "usage: make_test_sim_route [--seed=N] [--supersampling=K | --texture-filtering=0] WORLD.yaml DIRECTORY FEATURE START_X,START_Y "
-                 "X1,Y1 [X2,Y2 ...]\n";
+    std::cerr << usage;
     return 2;
   }
   try {

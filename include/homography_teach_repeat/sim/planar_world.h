@@ -42,7 +42,7 @@
 //       texture: person.jpg
 //       texture_size: [w, h]
 // Clutter and people are boxes whose four sides are walls (`see_over`: a ray passing above one
-// goes on to what is behind it); docs/simulator.md "Clutter and people".
+// goes on to what is behind it); docs/simulator.md, "The world as a real camera sees it".
 #pragma once
 
 #include <Eigen/Core>

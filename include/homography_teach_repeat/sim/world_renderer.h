@@ -7,7 +7,7 @@
 // homography of that wall maps it (docs/math.md §1.2), bilinearly. Above and below the walls: ceiling
 // and floor colours. Optional illumination gain, Gaussian pixel noise and blur.
 //
-// The world as a real camera sees it (docs/simulator.md, "A real camera"): a lens with distortion
+// The world as a real camera sees it (docs/simulator.md, "The world as a real camera sees it"): a lens with distortion
 // (the camera's plumb_bob or other model: each pixel's ray is the undistorted one), a mount that is
 // not level (pitch and roll of base_link, REP-103), lamps along the walls (a brightness that
 // varies along each wall), and motion blur from the robot's turning during the exposure. Any of
