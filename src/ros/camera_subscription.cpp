@@ -19,10 +19,12 @@ std::string readImageTransport(const ros::NodeHandle& private_nh) {
   return transport;
 }
 
-CameraSubscription::CameraSubscription(ros::NodeHandle nh, const std::string& image_topic, uint32_t queue_size,
-                                       const std::string& transport, ImageCallback on_image, ErrorCallback on_error)
-    : transport_(transport), on_image_(std::move(on_image)), on_error_(std::move(on_error)) {
-  if (transport == "raw") {
+CameraSubscription::CameraSubscription(const ros::NodeHandle& nh_in, const ros::NodeHandle& private_nh,
+                                       const std::string& image_topic, uint32_t queue_size, const std::string& node_name,
+                                       ImageCallback on_image)
+    : transport_(readImageTransport(private_nh)), node_name_(node_name), on_image_(std::move(on_image)) {
+  ros::NodeHandle nh = nh_in;
+  if (transport_ == "raw") {
     image_transport::ImageTransport it(nh);
     raw_ = it.subscribeCamera(
         image_topic, queue_size,
@@ -31,9 +33,6 @@ CameraSubscription::CameraSubscription(ros::NodeHandle nh, const std::string& im
         },
         ros::VoidPtr(), image_transport::TransportHints("raw"));
     return;
-  }
-  if (transport != "compressed") {
-    throw std::invalid_argument("image transport '" + transport + "': 'raw' or 'compressed'");
   }
   const std::string base_topic = nh.resolveName(image_topic);
   compressed_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CompressedImage>>(
@@ -52,12 +51,14 @@ void CameraSubscription::onCompressed(const sensor_msgs::CompressedImageConstPtr
     ++undecodable_;
     const std::string reason = "image at " + std::to_string(image->header.stamp.toSec()) + " s on " +
                                compressed_->getTopic() + " dropped: " + decoded.status().message();
-    {
-      std::lock_guard<std::mutex> lock(error_mutex_);
-      last_error_ = reason;
-      last_error_time_ = ros::Time::now();
+    std::lock_guard<std::mutex> lock(error_mutex_);
+    last_error_ = reason;
+    last_error_time_ = ros::Time::now();
+    const ros::WallTime now = ros::WallTime::now();
+    if (last_logged_.isZero() || (now - last_logged_).toSec() >= 2.0) {
+      last_logged_ = now;
+      ROS_WARN("%s: %s (%zu undecodable so far)", node_name_.c_str(), reason.c_str(), undecodable_.load());
     }
-    if (on_error_) on_error_(reason);
     return;
   }
   on_image_(*decoded, info);

@@ -61,9 +61,8 @@ HomographyNode::HomographyNode(const ros::NodeHandle& nh, const ros::NodeHandle&
   homography_publisher_ = private_nh_.advertise<HomographyStamped>("homography", 10);
   debug_image_publisher_ = image_transport::ImageTransport(private_nh_).advertise("debug_image", 1);
   camera_subscriber_ = std::make_unique<CameraSubscription>(
-      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
-      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
-      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "homography_node: %s", reason.c_str()); });
+      nh_, private_nh_, "camera/image_raw", 1, "homography_node",
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); });
   diagnostics_.setHardwareID("camera");
   diagnostics_.add("registration", this, &HomographyNode::produceDiagnostics);
   // Diagnostics also tick without images, so a stopped camera shows up.

@@ -77,9 +77,8 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = std::make_unique<CameraSubscription>(
-      nh_, "camera/image_raw", 2, readImageTransport(private_nh_),
-      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
-      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "teach_node: %s", reason.c_str()); });
+      nh_, private_nh_, "camera/image_raw", 2, "teach_node",
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); });
   finish_service_ = private_nh_.advertiseService("finish", &TeachNode::onFinish, this);
   diagnostics_.setHardwareID("teach_node");
   diagnostics_.add("teach", this, &TeachNode::produceDiagnostics);

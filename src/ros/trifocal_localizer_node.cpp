@@ -72,9 +72,8 @@ TrifocalLocalizerNode::TrifocalLocalizerNode(const ros::NodeHandle& nh, const ro
   landmarks_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("landmarks", 5);
   odometry_subscriber_ = nh_.subscribe("odom", 50, &TrifocalLocalizerNode::onOdometry, this, ros::TransportHints().tcpNoDelay());
   camera_subscriber_ = std::make_unique<CameraSubscription>(
-      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
-      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
-      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "trifocal_localizer: %s", reason.c_str()); });
+      nh_, private_nh_, "camera/image_raw", 1, "trifocal_localizer",
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); });
   diagnostics_.setHardwareID("trifocal_localizer");
   diagnostics_.add("three-view localization", this, &TrifocalLocalizerNode::produceDiagnostics);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });

@@ -5,8 +5,8 @@
 //               with OpenCV (compressed_image.h): Debian ships no compressed_image_transport plugin.
 // Either way an image is paired with the camera_info of the same stamp (the camera_info topic
 // beside the image topic) and handed to `on_image` as an Image. A compressed frame that cannot be
-// decoded (corrupt, truncated, not JPEG/PNG) never reaches `on_image`: it is counted and its
-// reason handed to `on_error` (the node logs it and reports it in its diagnostics).
+// decoded (corrupt, truncated, not JPEG/PNG) never reaches `on_image`: it is counted, logged under
+// the node's name (at most every 2 s) and reported in the node's diagnostics (addDiagnostics).
 // docs/using.md, "Compressed camera streams".
 #pragma once
 
@@ -35,12 +35,11 @@ class CameraSubscription {
  public:
   using ImageCallback =
       std::function<void(const sensor_msgs::ImageConstPtr&, const sensor_msgs::CameraInfoConstPtr&)>;
-  using ErrorCallback = std::function<void(const std::string& reason)>;
 
-  // `image_topic` is resolved in `nh` (e.g. "camera/image_raw"). Throws std::invalid_argument for
-  // a transport other than "raw" or "compressed".
-  CameraSubscription(ros::NodeHandle nh, const std::string& image_topic, uint32_t queue_size,
-                     const std::string& transport, ImageCallback on_image, ErrorCallback on_error);
+  // `image_topic` is resolved in `nh` (e.g. "camera/image_raw"); the transport is the node's
+  // `~image_transport` (readImageTransport: throws std::invalid_argument naming the parameter).
+  CameraSubscription(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh, const std::string& image_topic,
+                     uint32_t queue_size, const std::string& node_name, ImageCallback on_image);
   CameraSubscription(const CameraSubscription&) = delete;
   CameraSubscription& operator=(const CameraSubscription&) = delete;
 
@@ -60,12 +59,13 @@ class CameraSubscription {
   void onCompressed(const sensor_msgs::CompressedImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
 
   std::string transport_;
+  std::string node_name_;
   ImageCallback on_image_;
-  ErrorCallback on_error_;
   std::atomic<std::size_t> undecodable_{0};
   mutable std::mutex error_mutex_;
   std::string last_error_;
   ros::Time last_error_time_;
+  ros::WallTime last_logged_;
   // raw
   image_transport::CameraSubscriber raw_;
   // compressed

@@ -82,9 +82,8 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = std::make_unique<CameraSubscription>(
-      nh_, "camera/image_raw", 1, readImageTransport(private_nh_),
-      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); },
-      [](const std::string& reason) { ROS_WARN_THROTTLE(2.0, "repeat_node: %s", reason.c_str()); });
+      nh_, private_nh_, "camera/image_raw", 1, "repeat_node",
+      [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info) { onImage(image, info); });
   diagnostics_.setHardwareID("repeat_node");
   diagnostics_.add("localization", this, &RepeatNode::produceDiagnostics);
   start_time_ = ros::Time::now();
