@@ -68,20 +68,10 @@ std::string CameraSubscription::getTopic() const {
   return transport_ == "raw" ? raw_.getTopic() : compressed_->getTopic();
 }
 
-std::string CameraSubscription::lastDecodeError() const {
-  std::lock_guard<std::mutex> lock(error_mutex_);
-  return last_error_;
-}
-
-ros::Time CameraSubscription::lastDecodeErrorTime() const {
-  std::lock_guard<std::mutex> lock(error_mutex_);
-  return last_error_time_;
-}
-
 void CameraSubscription::addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat, double recent) const {
   stat.add("image transport", transport_ + " (" + getTopic() + ")");
   if (transport_ != "compressed") return;
-  stat.add("undecodable images dropped", undecodableFrames());
+  stat.add("undecodable images dropped", undecodable_.load());
   std::lock_guard<std::mutex> lock(error_mutex_);
   if (!last_error_.empty() && (ros::Time::now() - last_error_time_).toSec() <= recent) {
     stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_);

@@ -45,12 +45,6 @@ class CameraSubscription {
 
   // The topic the images come on (IMAGE_TOPIC, or IMAGE_TOPIC/compressed), resolved.
   std::string getTopic() const;
-  const std::string& transport() const { return transport_; }
-  // Compressed frames that could not be decoded, since the start.
-  std::size_t undecodableFrames() const { return undecodable_.load(); }
-  // The reason the last of them was dropped ("" if none) and when (ROS time).
-  std::string lastDecodeError() const;
-  ros::Time lastDecodeErrorTime() const;
   // Into a node's diagnostics: the transport, the frames dropped undecodable, and a WARN naming the
   // last one when it was dropped within the last `recent` seconds.
   void addDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat, double recent = 10.0) const;
