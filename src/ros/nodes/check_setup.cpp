@@ -6,7 +6,9 @@
 // publishes the report on ~report (std_msgs/String, latched) and /diagnostics, and exits 0 when
 // nothing blocks teaching, 1 otherwise (2: bad parameters).
 //   rosrun homography_teach_repeat check_setup camera:=/camera [_duration:=5] [_base_frame:=base_link]
-// Parameters (private): duration [s] 5, base_frame base_link, camera_frame (default: camera_info's
+// The window starts at the first image (a check_setup started beside the drivers waits for the
+// camera, commonly the last to come up), at the latest after startup_wait seconds.
+// Parameters (private): duration [s] 5, startup_wait [s] 10, base_frame base_link, camera_frame (default: camera_info's
 // frame_id), feature_type sift, min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2,
 // max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, line_min_length_px 25,
 // image_transport raw (or compressed: camera/image_raw/compressed, JPEG or PNG).
@@ -17,6 +19,7 @@
 #include <std_msgs/String.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <atomic>
 #include <cmath>
 #include <iostream>
 #include <mutex>
@@ -37,6 +40,7 @@ namespace {
 
 struct Settings {
   double duration = 5.0;
+  double startup_wait = 10.0;
   std::string base_frame = "base_link", camera_frame;
   htr::FeatureType feature_type = htr::FeatureType::kSift;
   htr::SetupCheckOptions check;
@@ -47,9 +51,12 @@ struct Settings {
 const char* const kUsage =
     "usage: rosrun homography_teach_repeat check_setup [camera:=/camera] [_duration:=5] [_base_frame:=base_link]\n"
     "         [_image_transport:=raw|compressed] [_feature_type:=sift] [_camera_frame:=FRAME]\n"
+    "         [_startup_wait:=10]\n"
     "Listens for `duration` seconds to CAMERA/image_raw (or CAMERA/image_raw/compressed), CAMERA/camera_info, odom\n"
     "and the tf base_frame -> camera, and says whether teach and repeat can work with what it saw:\n"
-    "each problem with how to fix it. Exit 0: ready to teach; 1: a problem blocks teaching; 2: bad parameters.\n"
+    "each problem with how to fix it. The listening starts at the first image (or undecodable compressed image),\n"
+    "at the latest after `startup_wait` seconds (drivers started beside check_setup get the time to come up).\n"
+    "Exit 0: ready to teach; 1: a problem blocks teaching; 2: bad parameters.\n"
     "Other parameters: min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2 s, max_tilt 0.035 rad,\n"
     "min_features 300, min_vertical_lines 10, line_min_length_px 25 (docs/using.md).\n";
 
@@ -58,6 +65,10 @@ Settings readSettings(const ros::NodeHandle& p) {
   htr::readParameters(p, [&] {
     s.duration = htr::readParameter(p, "duration", s.duration);
     if (!(s.duration > 0.5) || !std::isfinite(s.duration)) throw std::invalid_argument("duration must be > 0.5 s");
+    s.startup_wait = htr::readParameter(p, "startup_wait", s.startup_wait);
+    if (!(s.startup_wait >= 0.0) || !std::isfinite(s.startup_wait)) {
+      throw std::invalid_argument("startup_wait must be >= 0 s");
+    }
     s.base_frame = htr::readParameter<std::string>(p, "base_frame", s.base_frame);
     s.camera_frame = htr::readParameter<std::string>(p, "camera_frame", "");
     s.feature_type = htr::featureTypeFromString(htr::readParameter<std::string>(p, "feature_type", "sift"));
@@ -95,11 +106,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::mutex mutex;
+  std::atomic<bool> image_heard{false};
   htr::SetupObservations seen;
   sensor_msgs::ImageConstPtr last_image;
   std::string camera_frame = settings.camera_frame;
   // Images and camera_info apart (a missing camera_info must be seen as such, not as no images).
   const auto on_image = [&](const sensor_msgs::ImageConstPtr& image) {
+    image_heard = true;
     std::lock_guard<std::mutex> lock(mutex);
     seen.image_stamps.push_back(image->header.stamp.toSec());
     seen.image_width = static_cast<int>(image->width);
@@ -123,6 +136,7 @@ int main(int argc, char** argv) {
             return;
           }
           ROS_WARN_THROTTLE(2.0, "check_setup: %s", image.status().message().c_str());
+          image_heard = true;
           std::lock_guard<std::mutex> lock(mutex);
           ++undecodable;
           decode_error = image.status().message();
@@ -154,7 +168,11 @@ int main(int argc, char** argv) {
            settings.base_frame.c_str());
   ros::AsyncSpinner spinner(1);
   spinner.start();
-  // Wall time while the simulated clock has not started; ROS time otherwise.
+  // Wall time: a simulated clock may not have started.
+  const ros::WallTime wait_start = ros::WallTime::now();
+  while (ros::ok() && !image_heard && (ros::WallTime::now() - wait_start).toSec() < settings.startup_wait) {
+    ros::WallDuration(0.05).sleep();
+  }
   const ros::WallTime wall_start = ros::WallTime::now();
   while (ros::ok() && (ros::WallTime::now() - wall_start).toSec() < settings.duration) ros::WallDuration(0.05).sleep();
   spinner.stop();
