@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <tuple>
+#include <utility>
 
 #ifdef HTR_HAVE_XFEATURES2D
 #include <opencv2/xfeatures2d.hpp>
@@ -12,7 +14,7 @@
 namespace homography_teach_repeat {
 namespace {
 
-cv::Ptr<cv::Feature2D> createDetector(FeatureType type, int max_features) {
+cv::Ptr<cv::Feature2D> createDetector(FeatureType type, int max_features, bool upright = false) {
   switch (type) {
     case FeatureType::kSurf:
 #ifdef HTR_HAVE_XFEATURES2D
@@ -29,9 +31,20 @@ cv::Ptr<cv::Feature2D> createDetector(FeatureType type, int max_features) {
     case FeatureType::kOrb:
       return cv::ORB::create(max_features);
     case FeatureType::kAkaze:
-      return cv::AKAZE::create();
+      return cv::AKAZE::create(upright ? cv::AKAZE::DESCRIPTOR_MLDB_UPRIGHT : cv::AKAZE::DESCRIPTOR_MLDB);
   }
   return nullptr;
+}
+
+// SIFT gives one keypoint per dominant orientation at a location; with the orientation set to 0
+// those are copies.
+void makeUpright(std::vector<cv::KeyPoint>& keypoints) {
+  for (cv::KeyPoint& keypoint : keypoints) keypoint.angle = 0.0F;
+  const auto key = [](const cv::KeyPoint& k) { return std::make_tuple(k.pt.x, k.pt.y, k.size, k.octave); };
+  std::sort(keypoints.begin(), keypoints.end(), [&](const cv::KeyPoint& a, const cv::KeyPoint& b) { return key(a) < key(b); });
+  keypoints.erase(std::unique(keypoints.begin(), keypoints.end(),
+                              [&](const cv::KeyPoint& a, const cv::KeyPoint& b) { return key(a) == key(b); }),
+                  keypoints.end());
 }
 
 }  // namespace
@@ -100,7 +113,7 @@ void FeatureOptions::validate() const {
 
 FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(options) {
   options_.validate();
-  detector_ = createDetector(options_.type, options_.max_features);
+  detector_ = createDetector(options_.type, options_.max_features, options_.upright);
 }
 
 Expected<cv::Mat> toGray8(const cv::Mat& image) {
@@ -146,7 +159,19 @@ Expected<ImageFeatures> FeatureExtractor::extract(const cv::Mat& image, const cv
   }
   ImageFeatures features;
   features.type = options_.type;
-  detector_->detectAndCompute(*gray, mask, features.keypoints, features.descriptors);
+  if (options_.upright && options_.type != FeatureType::kAkaze) {
+    // Detect, turn the keypoints upright, describe them as given (SIFT, ORB and SURF describe a
+    // provided keypoint at its own angle).
+    detector_->detect(*gray, features.keypoints, mask);
+    makeUpright(features.keypoints);
+    detector_->compute(*gray, features.keypoints, features.descriptors);
+  } else {
+    detector_->detectAndCompute(*gray, mask, features.keypoints, features.descriptors);
+    // AKAZE's upright descriptor ignores the angle it still reports.
+    if (options_.upright) {
+      for (cv::KeyPoint& keypoint : features.keypoints) keypoint.angle = 0.0F;
+    }
+  }
   // AKAZE has no feature budget of its own: keep the strongest responses.
   if (static_cast<int>(features.keypoints.size()) > options_.max_features) {
     std::vector<int> order(features.keypoints.size());

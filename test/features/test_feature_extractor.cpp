@@ -1,5 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <opencv2/features2d.hpp>
+
+#include <set>
+#include <tuple>
+
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "support/test_images.h"
 
@@ -57,6 +62,37 @@ TEST_P(AllFeatureTypes, BlankImageGivesNoFeatures) {
   const auto features = extractor.extract(cv::Mat(480, 640, CV_8UC1, cv::Scalar(90)));
   ASSERT_TRUE(features.isOk());
   EXPECT_TRUE(features->keypoints.empty());
+}
+
+// Upright: every keypoint at angle 0, one per location (SIFT's orientation copies dropped), and the
+// descriptors still find a shifted copy of the image.
+TEST_P(AllFeatureTypes, UprightKeypointsPointUpAndMatchAShiftedImage) {
+  FeatureOptions options;
+  options.type = GetParam();
+  options.max_features = 800;
+  options.upright = true;
+  FeatureExtractor extractor(options);
+  const cv::Mat texture = test_support::makeTexture(680, 480, 4);
+  const cv::Mat reference = texture(cv::Rect(40, 0, 640, 480)).clone();
+  const cv::Mat shifted = texture(cv::Rect(0, 0, 640, 480)).clone();  // scene 40 px to the right
+  const auto a = extractor.extract(reference);
+  const auto b = extractor.extract(shifted);
+  ASSERT_TRUE(a.isOk() && b.isOk());
+  ASSERT_GT(a->keypoints.size(), 100u);
+  std::set<std::tuple<float, float, float>> locations;
+  for (const auto& k : a->keypoints) {
+    EXPECT_EQ(k.angle, 0.0F);
+    EXPECT_TRUE(locations.insert({k.pt.x, k.pt.y, k.size}).second) << "duplicate keypoint at " << k.pt;
+  }
+  cv::BFMatcher matcher(hasBinaryDescriptor(GetParam()) ? cv::NORM_HAMMING : cv::NORM_L2, true);
+  std::vector<cv::DMatch> matches;
+  matcher.match(a->descriptors, b->descriptors, matches);
+  int right = 0;
+  for (const auto& m : matches) {
+    const cv::Point2f d = b->keypoints[m.trainIdx].pt - a->keypoints[m.queryIdx].pt;
+    right += std::abs(d.x - 40.0F) < 1.5F && std::abs(d.y) < 1.5F ? 1 : 0;
+  }
+  EXPECT_GT(right, static_cast<int>(matches.size()) * 7 / 10) << right << " of " << matches.size();
 }
 
 INSTANTIATE_TEST_SUITE_P(Available, AllFeatureTypes,

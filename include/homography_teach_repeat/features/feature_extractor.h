@@ -28,6 +28,12 @@ bool hasBinaryDescriptor(FeatureType type);
 struct FeatureOptions {
   FeatureType type = FeatureType::kSift;
   int max_features = 1000;  // strongest features kept (by detector response)
+  // Upright descriptors: every keypoint's orientation is 0 (image up), so a descriptor no longer
+  // turns with the patch. A ground robot's camera does not roll; rotation invariance only costs
+  // matches there (docs/evaluation.md, "Heading across seasons": upright SIFT fails a third as
+  // many seasonal pairs as SIFT). SIFT: one keypoint per location (orientation duplicates
+  // dropped); AKAZE: its upright MLDB descriptor; ORB: the detector's angle replaced by 0.
+  bool upright = false;
 
   void validate() const;  // throws std::invalid_argument
 };

@@ -1,0 +1,48 @@
+// The horizontal shift between a reference image and a current image of the same place, from
+// point matches by a vote: the heading correction a teach-and-repeat robot steers by, in pixels,
+// the quantity μ of the 1D homography (docs/math.md §4.10). Under planar motion a point at depth Z
+// moves by f tanθ + f t_x/Z (+ terms in x); the distant scene agrees on one shift, wrong matches
+// and near objects scatter. The vote takes the window of the image's x differences that holds
+// the most matches (RAS 2017's histogram vote without its bin edges): a handful of agreeing
+// matches suffices where a homography needs 8 with a consensus, which is what holds across
+// seasons (docs/evaluation.md, "Heading across seasons").
+#pragma once
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+
+namespace homography_teach_repeat {
+
+struct ImageShiftOptions {
+  // Width of the vote's window, as a fraction of the image width (0.035: 35 px at 1024 px, the
+  // benchmark's tolerance; about 1° of heading for a 30° field of view).
+  double window_fraction = 0.035;
+  // Matches whose y differ by more than this fraction of the image width are dropped (a robot's
+  // camera does not move vertically; a seasonal match that does is wrong).
+  double vertical_limit_fraction = 0.1;
+  // Fewer matches in the winning window: kNoConsensus.
+  int min_support = 5;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+struct ImageShift {
+  // current x − reference x [px]: the mean of the winning window's x differences within 3 robust
+  // σ (1.4826 MAD) of their median (wrong matches that fall into the window are left out).
+  double shift_px = 0.0;
+  double spread_px = 0.0;  // standard deviation of those x differences [px]
+  double sigma_px = 0.0;   // standard error of the shift: spread / √support [px]
+  int support = 0;         // the matches the shift is the mean of
+  // The most matches in a window whose centre is more than a window width from the winner's: a
+  // value near `support` means two shifts compete (repeated structure, parallax of a near object).
+  int runner_up_support = 0;
+  int matches = 0;         // matches within the vertical limit
+};
+
+// `image_width` [px] scales the window and the vertical limit. Status: kInvalidInput (width <= 0
+// or a non-finite pixel), kTooFewPoints (fewer than min_support matches within the vertical
+// limit), kNoConsensus (no window with min_support matches).
+Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
+                                        const ImageShiftOptions& options = ImageShiftOptions());
+
+}  // namespace homography_teach_repeat

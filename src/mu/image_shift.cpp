@@ -1,0 +1,102 @@
+#include "homography_teach_repeat/mu/image_shift.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace homography_teach_repeat {
+
+void ImageShiftOptions::validate() const {
+  if (!(window_fraction > 0.0 && window_fraction < 1.0)) {
+    throw std::invalid_argument("image shift window_fraction must be in (0, 1)");
+  }
+  if (!(vertical_limit_fraction > 0.0) || !std::isfinite(vertical_limit_fraction)) {
+    throw std::invalid_argument("image shift vertical_limit_fraction must be > 0");
+  }
+  if (min_support < 1) throw std::invalid_argument("image shift min_support must be >= 1");
+}
+
+namespace {
+
+// For sorted values: the first index and the count of the fullest window [v_i, v_i + width].
+struct Window {
+  std::size_t first = 0;
+  int count = 0;
+};
+
+Window fullestWindow(const std::vector<double>& sorted, double width, double exclude_from, double exclude_to) {
+  Window best;
+  std::size_t end = 0;
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    end = std::max(end, i);
+    while (end < sorted.size() && sorted[end] - sorted[i] <= width) ++end;
+    const double centre = 0.5 * (sorted[i] + sorted[end - 1]);
+    if (centre >= exclude_from && centre <= exclude_to) continue;
+    const int count = static_cast<int>(end - i);
+    if (count > best.count) best = Window{i, count};
+  }
+  return best;
+}
+
+}  // namespace
+
+Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
+                                        const ImageShiftOptions& options) {
+  options.validate();
+  if (image_width <= 0) return Status(StatusCode::kInvalidInput, "image width must be > 0");
+  const double window = options.window_fraction * image_width;
+  const double vertical_limit = options.vertical_limit_fraction * image_width;
+  std::vector<double> dx;
+  dx.reserve(matches.size());
+  for (const PointMatch& m : matches) {
+    if (!m.reference.allFinite() || !m.current.allFinite()) {
+      return Status(StatusCode::kInvalidInput, "a match has a non-finite pixel");
+    }
+    if (std::abs(m.current.y() - m.reference.y()) <= vertical_limit) dx.push_back(m.current.x() - m.reference.x());
+  }
+  ImageShift shift;
+  shift.matches = static_cast<int>(dx.size());
+  if (shift.matches < options.min_support) {
+    return Status(StatusCode::kTooFewPoints, std::to_string(shift.matches) + " matches within the vertical limit, " +
+                                                 std::to_string(options.min_support) + " needed");
+  }
+  std::sort(dx.begin(), dx.end());
+  const Window best = fullestWindow(dx, window, 1.0, 0.0);  // nothing excluded
+  if (best.count < options.min_support) {
+    return Status(StatusCode::kNoConsensus, "at most " + std::to_string(best.count) + " of " +
+                                                std::to_string(shift.matches) + " matches agree on a shift");
+  }
+  // Within the window, wrong matches fall uniformly and the right ones about their shift: the
+  // median, then the matches within 3 robust σ (1.4826 MAD, at least 0.5 px) of it.
+  std::vector<double> in_window(dx.begin() + static_cast<std::ptrdiff_t>(best.first),
+                                dx.begin() + static_cast<std::ptrdiff_t>(best.first) + best.count);
+  const double median = in_window[in_window.size() / 2];
+  std::vector<double> deviations;
+  deviations.reserve(in_window.size());
+  for (const double d : in_window) deviations.push_back(std::abs(d - median));
+  std::nth_element(deviations.begin(), deviations.begin() + static_cast<std::ptrdiff_t>(deviations.size() / 2),
+                   deviations.end());
+  const double robust_sigma = std::max(0.5, 1.4826 * deviations[deviations.size() / 2]);
+  double sum = 0.0;
+  int kept = 0;
+  for (const double d : in_window) {
+    if (std::abs(d - median) > 3.0 * robust_sigma) continue;
+    sum += d;
+    ++kept;
+  }
+  shift.support = kept;
+  shift.shift_px = sum / kept;
+  double squares = 0.0;
+  for (const double d : in_window) {
+    if (std::abs(d - median) <= 3.0 * robust_sigma) squares += (d - shift.shift_px) * (d - shift.shift_px);
+  }
+  shift.spread_px = kept > 1 ? std::sqrt(squares / (kept - 1)) : 0.0;
+  shift.sigma_px = shift.spread_px / std::sqrt(static_cast<double>(kept));
+  shift.runner_up_support = fullestWindow(dx, window, shift.shift_px - window, shift.shift_px + window).count;
+  return shift;
+}
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,109 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "homography_teach_repeat/mu/image_shift.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// `inliers` matches shifted by `shift` with Gaussian noise `noise` in x, `outliers` matched at
+// random across a 1024 x 384 image.
+PointMatches makeMatches(double shift, int inliers, int outliers, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> x(0.0, 1024.0), y(0.0, 384.0);
+  std::normal_distribution<double> n(0.0, noise);
+  PointMatches matches;
+  for (int i = 0; i < inliers; ++i) {
+    const Eigen::Vector2d p(x(rng), y(rng));
+    matches.push_back({p, p + Eigen::Vector2d(shift + n(rng), n(rng))});
+  }
+  for (int i = 0; i < outliers; ++i) {
+    const Eigen::Vector2d p(x(rng), y(rng));
+    matches.push_back({p, Eigen::Vector2d(x(rng), p.y() + 0.3 * (y(rng) - 192.0))});
+  }
+  return matches;
+}
+
+}  // namespace
+
+TEST(ImageShift, FindsTheShiftAmongThreeTimesAsManyWrongMatches) {
+  for (const double truth : {-240.0, -13.0, 0.0, 57.5, 180.0}) {
+    const auto shift = estimateImageShift(makeMatches(truth, 40, 120, 2.0, 3), 1024);
+    ASSERT_TRUE(shift.isOk()) << shift.status().toString();
+    EXPECT_NEAR(shift->shift_px, truth, 1.5);
+    EXPECT_GE(shift->support, 38);
+    EXPECT_LT(shift->runner_up_support, shift->support / 2);
+    EXPECT_NEAR(shift->spread_px, 2.0, 0.8);
+    EXPECT_NEAR(shift->sigma_px, shift->spread_px / std::sqrt(shift->support), 1e-12);
+  }
+}
+
+TEST(ImageShift, AHandfulOfAgreeingMatchesSuffices) {
+  const auto shift = estimateImageShift(makeMatches(-75.0, 6, 30, 1.0, 5), 1024);
+  ASSERT_TRUE(shift.isOk()) << shift.status().toString();
+  EXPECT_NEAR(shift->shift_px, -75.0, 2.0);
+}
+
+TEST(ImageShift, TwoCompetingShiftsShowInTheRunnerUp) {
+  PointMatches matches = makeMatches(20.0, 30, 0, 1.0, 7);
+  const PointMatches other = makeMatches(-100.0, 25, 0, 1.0, 8);
+  matches.insert(matches.end(), other.begin(), other.end());
+  const auto shift = estimateImageShift(matches, 1024);
+  ASSERT_TRUE(shift.isOk());
+  EXPECT_NEAR(shift->shift_px, 20.0, 1.0);
+  EXPECT_EQ(shift->runner_up_support, 25);
+}
+
+TEST(ImageShift, TheWindowScalesWithTheImage) {
+  // Half the image: half the window (17.5 px); two groups 25 px apart are two windows then. At
+  // full width (35 px) one window holds both, and the robust mean keeps the larger group.
+  PointMatches matches = makeMatches(10.0, 20, 0, 0.5, 9);
+  const PointMatches other = makeMatches(35.0, 15, 0, 0.5, 10);
+  matches.insert(matches.end(), other.begin(), other.end());
+  const auto half = estimateImageShift(matches, 512);
+  ASSERT_TRUE(half.isOk());
+  EXPECT_NEAR(half->shift_px, 10.0, 0.5);
+  EXPECT_EQ(half->runner_up_support, 15);
+  const auto full = estimateImageShift(matches, 1024);
+  ASSERT_TRUE(full.isOk());
+  EXPECT_NEAR(full->shift_px, 10.0, 0.5);
+  EXPECT_EQ(full->support, 20);
+  EXPECT_EQ(full->runner_up_support, 0);
+}
+
+TEST(ImageShift, MatchesThatMoveVerticallyAreDropped) {
+  PointMatches matches = makeMatches(0.0, 10, 0, 0.5, 11);
+  for (int i = 0; i < 30; ++i) {
+    matches.push_back({Eigen::Vector2d(100.0 + i, 50.0), Eigen::Vector2d(400.0 + i, 300.0)});  // 250 px down
+  }
+  const auto shift = estimateImageShift(matches, 1024);
+  ASSERT_TRUE(shift.isOk());
+  EXPECT_EQ(shift->matches, 10);
+  EXPECT_NEAR(shift->shift_px, 0.0, 0.5);
+}
+
+TEST(ImageShift, TooFewOrDisagreeingMatchesAreStatuses) {
+  EXPECT_EQ(estimateImageShift({}, 1024).status().code(), StatusCode::kTooFewPoints);
+  EXPECT_EQ(estimateImageShift(makeMatches(5.0, 4, 0, 0.5, 12), 1024).status().code(), StatusCode::kTooFewPoints);
+  PointMatches scattered;
+  for (int i = 0; i < 40; ++i) {
+    scattered.push_back({Eigen::Vector2d(500.0, 100.0), Eigen::Vector2d(500.0 + 40.0 * (i - 20), 100.0)});
+  }
+  const auto none = estimateImageShift(scattered, 1024);
+  EXPECT_EQ(none.status().code(), StatusCode::kNoConsensus) << none.status().toString();
+}
+
+TEST(ImageShift, BadInputIsRefused) {
+  PointMatches matches = makeMatches(5.0, 20, 0, 0.5, 13);
+  EXPECT_EQ(estimateImageShift(matches, 0).status().code(), StatusCode::kInvalidInput);
+  matches[3].current.x() = std::nan("");
+  EXPECT_EQ(estimateImageShift(matches, 1024).status().code(), StatusCode::kInvalidInput);
+  ImageShiftOptions options;
+  options.window_fraction = 0.0;
+  EXPECT_THROW(estimateImageShift(makeMatches(5.0, 20, 0, 0.5, 13), 1024, options), std::invalid_argument);
+  options = ImageShiftOptions();
+  options.min_support = 0;
+  EXPECT_THROW(options.validate(), std::invalid_argument);
+}
