@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/features/feature_extractor.h"
 
+#include "homography_teach_repeat/features/brief.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -32,6 +34,8 @@ cv::Ptr<cv::Feature2D> createDetector(FeatureType type, int max_features, bool u
       return cv::ORB::create(max_features);
     case FeatureType::kAkaze:
       return cv::AKAZE::create(upright ? cv::AKAZE::DESCRIPTOR_MLDB_UPRIGHT : cv::AKAZE::DESCRIPTOR_MLDB);
+    case FeatureType::kBrief:
+      return createAgastBrief(max_features);
   }
   return nullptr;
 }
@@ -59,6 +63,8 @@ std::string toString(FeatureType type) {
       return "orb";
     case FeatureType::kAkaze:
       return "akaze";
+    case FeatureType::kBrief:
+      return "brief";
   }
   return "sift";
 }
@@ -68,7 +74,7 @@ bool isFeatureTypeAvailable(FeatureType type) { return createDetector(type, 100)
 std::string availableFeatureTypes() {
   std::string names;
   for (FeatureType type :
-       {FeatureType::kSurf, FeatureType::kSift, FeatureType::kOrb, FeatureType::kAkaze}) {
+       {FeatureType::kSurf, FeatureType::kSift, FeatureType::kOrb, FeatureType::kAkaze, FeatureType::kBrief}) {
     if (!isFeatureTypeAvailable(type)) continue;
     if (!names.empty()) names += ", ";
     names += toString(type);
@@ -86,6 +92,8 @@ FeatureType featureTypeFromString(const std::string& name) {
     type = FeatureType::kOrb;
   } else if (name == "akaze") {
     type = FeatureType::kAkaze;
+  } else if (name == "brief") {
+    type = FeatureType::kBrief;
   } else {
     throw std::invalid_argument("unknown feature type '" + name +
                                 "' (available: " + availableFeatureTypes() + ")");
@@ -100,7 +108,7 @@ FeatureType featureTypeFromString(const std::string& name) {
 }
 
 bool hasBinaryDescriptor(FeatureType type) {
-  return type == FeatureType::kOrb || type == FeatureType::kAkaze;
+  return type == FeatureType::kOrb || type == FeatureType::kAkaze || type == FeatureType::kBrief;
 }
 
 void FeatureOptions::validate() const {
@@ -159,7 +167,7 @@ Expected<ImageFeatures> FeatureExtractor::extract(const cv::Mat& image, const cv
   }
   ImageFeatures features;
   features.type = options_.type;
-  if (options_.upright && options_.type != FeatureType::kAkaze) {
+  if (options_.upright && options_.type != FeatureType::kAkaze && options_.type != FeatureType::kBrief) {
     // Detect, turn the keypoints upright, describe them as given (SIFT, ORB and SURF describe a
     // provided keypoint at its own angle).
     detector_->detect(*gray, features.keypoints, mask);

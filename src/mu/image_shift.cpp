@@ -17,6 +17,9 @@ void ImageShiftOptions::validate() const {
     throw std::invalid_argument("image shift vertical_limit_fraction must be > 0");
   }
   if (min_support < 1) throw std::invalid_argument("image shift min_support must be >= 1");
+  if (!(max_scale_change >= 0.0 && max_scale_change < 1.0)) {
+    throw std::invalid_argument("image shift max_scale_change must be in [0, 1)");
+  }
 }
 
 namespace {
@@ -49,13 +52,17 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
   if (image_width <= 0) return Status(StatusCode::kInvalidInput, "image width must be > 0");
   const double window = options.window_fraction * image_width;
   const double vertical_limit = options.vertical_limit_fraction * image_width;
-  std::vector<double> dx;
+  const double centre = 0.5 * image_width;
+  std::vector<double> dx, x;  // x difference and reference x (from the image centre)
   dx.reserve(matches.size());
+  x.reserve(matches.size());
   for (const PointMatch& m : matches) {
     if (!m.reference.allFinite() || !m.current.allFinite()) {
       return Status(StatusCode::kInvalidInput, "a match has a non-finite pixel");
     }
-    if (std::abs(m.current.y() - m.reference.y()) <= vertical_limit) dx.push_back(m.current.x() - m.reference.x());
+    if (std::abs(m.current.y() - m.reference.y()) > vertical_limit) continue;
+    dx.push_back(m.current.x() - m.reference.x());
+    x.push_back(m.reference.x() - centre);
   }
   ImageShift shift;
   shift.matches = static_cast<int>(dx.size());
@@ -63,16 +70,35 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
     return Status(StatusCode::kTooFewPoints, std::to_string(shift.matches) + " matches within the vertical limit, " +
                                                  std::to_string(options.min_support) + " needed");
   }
-  std::sort(dx.begin(), dx.end());
-  const Window best = fullestWindow(dx, window, 1.0, 0.0);  // nothing excluded
+  // The vote over the scale: the shift at the image centre of every match, were the view scaled
+  // by s about the centre (dx = shift + (s − 1) x); scales 1.02^k, k = 0, ±1, ±2, ... within
+  // max_scale_change, the scale nearest 1 winning a tie.
+  const int steps = options.max_scale_change > 0.0
+                        ? static_cast<int>(std::floor(std::log1p(options.max_scale_change) / std::log(1.02) + 1e-9))
+                        : 0;
+  std::vector<double> centred(dx.size()), best_centred;
+  Window best;
+  double best_scale = 1.0;
+  for (int i = 0; i <= 2 * steps; ++i) {
+    const int k = (i % 2 == 0 ? 1 : -1) * ((i + 1) / 2);  // 0, -1, 1, -2, 2, ...
+    const double scale = std::pow(1.02, k);
+    for (std::size_t j = 0; j < dx.size(); ++j) centred[j] = dx[j] - (scale - 1.0) * x[j];
+    std::sort(centred.begin(), centred.end());
+    const Window window_here = fullestWindow(centred, window, 1.0, 0.0);  // nothing excluded
+    if (window_here.count > best.count) {
+      best = window_here;
+      best_scale = scale;
+      best_centred = centred;
+    }
+  }
   if (best.count < options.min_support) {
     return Status(StatusCode::kNoConsensus, "at most " + std::to_string(best.count) + " of " +
                                                 std::to_string(shift.matches) + " matches agree on a shift");
   }
   // Within the window, wrong matches fall uniformly and the right ones about their shift: the
   // median, then the matches within 3 robust σ (1.4826 MAD, at least 0.5 px) of it.
-  std::vector<double> in_window(dx.begin() + static_cast<std::ptrdiff_t>(best.first),
-                                dx.begin() + static_cast<std::ptrdiff_t>(best.first) + best.count);
+  std::vector<double> in_window(best_centred.begin() + static_cast<std::ptrdiff_t>(best.first),
+                                best_centred.begin() + static_cast<std::ptrdiff_t>(best.first) + best.count);
   const double median = in_window[in_window.size() / 2];
   std::vector<double> deviations;
   deviations.reserve(in_window.size());
@@ -89,13 +115,15 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
   }
   shift.support = kept;
   shift.shift_px = sum / kept;
+  shift.scale = best_scale;
   double squares = 0.0;
   for (const double d : in_window) {
     if (std::abs(d - median) <= 3.0 * robust_sigma) squares += (d - shift.shift_px) * (d - shift.shift_px);
   }
   shift.spread_px = kept > 1 ? std::sqrt(squares / (kept - 1)) : 0.0;
   shift.sigma_px = shift.spread_px / std::sqrt(static_cast<double>(kept));
-  shift.runner_up_support = fullestWindow(dx, window, shift.shift_px - window, shift.shift_px + window).count;
+  shift.runner_up_support =
+      fullestWindow(best_centred, window, shift.shift_px - window, shift.shift_px + window).count;
   return shift;
 }
 

@@ -18,11 +18,12 @@ TEST(FeatureType, ParsesNamesAndListsAlternatives) {
   EXPECT_EQ(featureTypeFromString("sift"), FeatureType::kSift);
   EXPECT_EQ(featureTypeFromString("orb"), FeatureType::kOrb);
   EXPECT_EQ(featureTypeFromString("akaze"), FeatureType::kAkaze);
+  EXPECT_EQ(featureTypeFromString("brief"), FeatureType::kBrief);
   try {
-    featureTypeFromString("brief");
+    featureTypeFromString("freak");
     FAIL() << "accepted an unknown feature type";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("sift, orb, akaze"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sift, orb, akaze, brief"), std::string::npos) << e.what();
   }
 }
 
@@ -97,7 +98,7 @@ TEST_P(AllFeatureTypes, UprightKeypointsPointUpAndMatchAShiftedImage) {
 
 INSTANTIATE_TEST_SUITE_P(Available, AllFeatureTypes,
                          ::testing::Values(FeatureType::kSift, FeatureType::kOrb,
-                                           FeatureType::kAkaze));
+                                           FeatureType::kAkaze, FeatureType::kBrief));
 
 TEST(FeatureExtractor, ColourImageGivesSameFeaturesAsGrey) {
   FeatureExtractor extractor(FeatureOptions{});

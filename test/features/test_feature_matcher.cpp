@@ -79,7 +79,7 @@ TEST_P(MatcherForType, SameMatchesAsOpenCvBruteForce) {
 
 INSTANTIATE_TEST_SUITE_P(Available, MatcherForType,
                          ::testing::Values(FeatureType::kSift, FeatureType::kOrb,
-                                           FeatureType::kAkaze));
+                                           FeatureType::kAkaze, FeatureType::kBrief));
 
 TEST(FeatureMatcher, RatioTestRemovesAmbiguousMatches) {
   const Pair pair = extractPair(FeatureType::kSift);

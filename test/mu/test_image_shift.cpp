@@ -62,11 +62,13 @@ TEST(ImageShift, TheWindowScalesWithTheImage) {
   PointMatches matches = makeMatches(10.0, 20, 0, 0.5, 9);
   const PointMatches other = makeMatches(35.0, 15, 0, 0.5, 10);
   matches.insert(matches.end(), other.begin(), other.end());
-  const auto half = estimateImageShift(matches, 512);
+  ImageShiftOptions shifts_only;  // (the scale search could fuse two groups spread over x)
+  shifts_only.max_scale_change = 0.0;
+  const auto half = estimateImageShift(matches, 512, shifts_only);
   ASSERT_TRUE(half.isOk());
   EXPECT_NEAR(half->shift_px, 10.0, 0.5);
   EXPECT_EQ(half->runner_up_support, 15);
-  const auto full = estimateImageShift(matches, 1024);
+  const auto full = estimateImageShift(matches, 1024, shifts_only);
   ASSERT_TRUE(full.isOk());
   EXPECT_NEAR(full->shift_px, 10.0, 0.5);
   EXPECT_EQ(full->support, 20);
@@ -106,4 +108,29 @@ TEST(ImageShift, BadInputIsRefused) {
   options = ImageShiftOptions();
   options.min_support = 0;
   EXPECT_THROW(options.validate(), std::invalid_argument);
+}
+
+TEST(ImageShift, AViewScaledAboutTheCentreStillGivesTheCentreShift) {
+  // The robot 8 % closer to the scene: x − 512 scaled by 1.08, then shifted by 30 px; the x
+  // differences spread over ±40 px, wider than the window. Outliers as elsewhere.
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> x(0.0, 1024.0), y(0.0, 384.0);
+  PointMatches matches;
+  for (int i = 0; i < 60; ++i) {
+    const Eigen::Vector2d p(x(rng), y(rng));
+    matches.push_back({p, Eigen::Vector2d(512.0 + 1.08 * (p.x() - 512.0) + 30.0, 192.0 + 1.08 * (p.y() - 192.0))});
+  }
+  const PointMatches outliers = makeMatches(0.0, 0, 60, 1.0, 22);
+  matches.insert(matches.end(), outliers.begin(), outliers.end());
+  const auto shift = estimateImageShift(matches, 1024);
+  ASSERT_TRUE(shift.isOk());
+  EXPECT_NEAR(shift->shift_px, 30.0, 3.0);
+  EXPECT_NEAR(shift->scale, 1.08, 0.03);  // a window of 35 px spans ±0.03 of scale over ±512 px
+  EXPECT_GE(shift->support, 50);
+  ImageShiftOptions shifts_only;
+  shifts_only.max_scale_change = 0.0;
+  const auto unscaled = estimateImageShift(matches, 1024, shifts_only);
+  ASSERT_TRUE(unscaled.isOk());
+  EXPECT_EQ(unscaled->scale, 1.0);
+  EXPECT_LT(unscaled->support, 35);  // the window holds only part of the spread
 }

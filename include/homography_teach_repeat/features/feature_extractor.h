@@ -1,5 +1,6 @@
 // Point features of an image: SURF where OpenCV was built with the non-free xfeatures2d module,
-// otherwise SIFT, ORB or AKAZE (always present in OpenCV >= 4.4).
+// otherwise SIFT, ORB or AKAZE (always present in OpenCV >= 4.4), and BRIEF on AGAST corners
+// (features/brief.h, upright and single-scale: the seasonal heading's features).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -12,9 +13,9 @@
 
 namespace homography_teach_repeat {
 
-enum class FeatureType { kSurf, kSift, kOrb, kAkaze };
+enum class FeatureType { kSurf, kSift, kOrb, kAkaze, kBrief };
 
-// "surf", "sift", "orb", "akaze". Throws std::invalid_argument on an unknown name, and for
+// "surf", "sift", "orb", "akaze", "brief". Throws std::invalid_argument on an unknown name, and for
 // "surf" when this OpenCV has no SURF (the message names the available alternatives).
 FeatureType featureTypeFromString(const std::string& name);
 std::string toString(FeatureType type);
@@ -32,7 +33,8 @@ struct FeatureOptions {
   // turns with the patch. A ground robot's camera does not roll; rotation invariance only costs
   // matches there (docs/evaluation.md, "Heading across seasons": upright SIFT fails a third as
   // many seasonal pairs as SIFT). SIFT: one keypoint per location (orientation duplicates
-  // dropped); AKAZE: its upright MLDB descriptor; ORB: the detector's angle replaced by 0.
+  // dropped); AKAZE: its upright MLDB descriptor; ORB: the detector's angle replaced by 0; BRIEF
+  // is upright either way.
   bool upright = false;
 
   void validate() const;  // throws std::invalid_argument

@@ -1,5 +1,5 @@
-// The horizontal shift between a reference image and a current image of the same place, from
-// point matches by a vote: the heading correction a teach-and-repeat robot steers by, in pixels,
+// The horizontal shift at the image centre between a reference image and a current image of the
+// same place, from point matches by a vote: the heading correction a teach-and-repeat robot steers by, in pixels,
 // the quantity μ of the 1D homography (docs/math.md §4.10). Under planar motion a point at depth Z
 // moves by f tanθ + f t_x/Z (+ terms in x); the distant scene agrees on one shift, wrong matches
 // and near objects scatter. The vote takes the window of the image's x differences that holds
@@ -22,14 +22,20 @@ struct ImageShiftOptions {
   double vertical_limit_fraction = 0.1;
   // Fewer matches in the winning window: kNoConsensus.
   int min_support = 5;
+  // A robot standing ahead of or behind the taught spot sees the scene scaled about the image
+  // centre, which spreads the x differences by (s − 1) x: the vote also searches scales s within
+  // 1 ± this (in steps of 2 %) and the shift is taken at the image centre. 0: shifts only.
+  double max_scale_change = 0.1;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
 
 struct ImageShift {
-  // current x − reference x [px]: the mean of the winning window's x differences within 3 robust
-  // σ (1.4826 MAD) of their median (wrong matches that fall into the window are left out).
+  // current x − reference x at the image centre [px]: the mean of the winning window's x
+  // differences (at the winning scale) within 3 robust σ (1.4826 MAD) of their median (wrong
+  // matches that fall into the window are left out).
   double shift_px = 0.0;
+  double scale = 1.0;      // the winning scale of the view about the image centre
   double spread_px = 0.0;  // standard deviation of those x differences [px]
   double sigma_px = 0.0;   // standard error of the shift: spread / √support [px]
   int support = 0;         // the matches the shift is the mean of

@@ -48,29 +48,35 @@ struct Method {
   std::string name;
   std::string description;
   Estimator estimator = Estimator::kVote;
-  FeatureOptions features;
+  std::vector<FeatureOptions> features;  // kVote: the matches of every set vote together
 };
 
 std::vector<Method> allMethods(int max_features) {
-  const auto points = [&](const std::string& name, Estimator estimator, FeatureType type, bool upright,
-                          const std::string& description) {
+  const auto set = [&](FeatureType type, bool upright) {
     FeatureOptions features;
     features.type = type;
     features.max_features = max_features;
     features.upright = upright;
-    return Method{name, description, estimator, features};
+    return features;
   };
+  const FeatureOptions sift = set(FeatureType::kSift, false), upright_sift = set(FeatureType::kSift, true);
+  const FeatureOptions akaze = set(FeatureType::kAkaze, false), upright_akaze = set(FeatureType::kAkaze, true);
+  const FeatureOptions upright_orb = set(FeatureType::kOrb, true), brief = set(FeatureType::kBrief, true);
+  const std::string vote = ", mutual nearest, shift vote";
   return {
-      points("homography", Estimator::kHomography, FeatureType::kSift, false,
-             "SIFT, ratio 0.8 + mutual, robust homography (the fast_hd chain): the shift of the image centre"),
-      points("sift_vote", Estimator::kVote, FeatureType::kSift, false, "SIFT, mutual nearest, shift vote"),
-      points("upright_sift_vote", Estimator::kVote, FeatureType::kSift, true,
-             "upright SIFT, mutual nearest, shift vote"),
-      points("akaze_vote", Estimator::kVote, FeatureType::kAkaze, false, "AKAZE, mutual nearest, shift vote"),
-      points("upright_akaze_vote", Estimator::kVote, FeatureType::kAkaze, true,
-             "upright AKAZE, mutual nearest, shift vote"),
-      points("upright_orb_vote", Estimator::kVote, FeatureType::kOrb, true, "upright ORB, mutual nearest, shift vote"),
-      Method{"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, FeatureOptions{}},
+      {"homography", "SIFT, ratio 0.8 + mutual, robust homography (the fast_hd chain): the shift of the image centre",
+       Estimator::kHomography, {sift}},
+      {"sift_vote", "SIFT" + vote, Estimator::kVote, {sift}},
+      {"upright_sift_vote", "upright SIFT" + vote, Estimator::kVote, {upright_sift}},
+      {"akaze_vote", "AKAZE" + vote, Estimator::kVote, {akaze}},
+      {"upright_akaze_vote", "upright AKAZE" + vote, Estimator::kVote, {upright_akaze}},
+      {"upright_orb_vote", "upright ORB" + vote, Estimator::kVote, {upright_orb}},
+      {"brief_vote", "BRIEF on AGAST corners" + vote, Estimator::kVote, {brief}},
+      {"upright_akaze_brief_vote", "upright AKAZE and BRIEF, each mutual nearest, one shift vote", Estimator::kVote,
+       {upright_akaze, brief}},
+      {"upright_akaze_sift_brief_vote", "upright AKAZE, upright SIFT and BRIEF, each mutual nearest, one shift vote",
+       Estimator::kVote, {upright_akaze, upright_sift, brief}},
+      {"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, {}},
   };
 }
 
@@ -96,7 +102,7 @@ struct Outcome {
 
 // What a method extracted from one image.
 struct Extracted {
-  std::optional<ImageFeatures> features;
+  std::vector<ImageFeatures> features;  // one per feature set of the method
   std::optional<std::vector<VerticalLine>> lines;
   std::string problem;
   double time_ms = 0.0;
@@ -110,9 +116,15 @@ Extracted extract(const Method& method, const cv::Mat& image) {
     auto lines = extractor.extract(image);
     if (lines) e.lines = std::move(*lines); else e.problem = lines.status().toString();
   } else {
-    FeatureExtractor extractor(method.features);
-    auto features = extractor.extract(image);
-    if (features) e.features = std::move(*features); else e.problem = features.status().toString();
+    for (const FeatureOptions& options : method.features) {
+      FeatureExtractor extractor(options);
+      auto features = extractor.extract(image);
+      if (!features) {
+        e.problem = features.status().toString();
+        break;
+      }
+      e.features.push_back(std::move(*features));
+    }
   }
   e.time_ms = msSince(start);
   return e;
@@ -136,7 +148,7 @@ Outcome measure(const Method& method, const Extracted& reference, const Extracte
       outcome.status = correction.status().toString();
     }
   } else if (method.estimator == Estimator::kHomography) {
-    const auto registration = registerFeatures(*reference.features, *current.features, MatchOptions(),
+    const auto registration = registerFeatures(reference.features[0], current.features[0], MatchOptions(),
                                                RobustHomographyOptions(), nullptr);
     if (registration) {
       const Eigen::Vector3d centre(0.5 * (size.width - 1), 0.5 * (size.height - 1), 1.0);
@@ -149,13 +161,19 @@ Outcome measure(const Method& method, const Extracted& reference, const Extracte
   } else {
     MatchOptions mutual_nearest;
     mutual_nearest.ratio = 1.0;
-    const auto matches = matchFeatures(*reference.features, *current.features, mutual_nearest);
-    if (matches) {
-      const auto shift = estimateImageShift(toPointMatches(*reference.features, *current.features, *matches),
-                                            size.width);
+    PointMatches all;
+    for (std::size_t i = 0; i < reference.features.size() && outcome.status == "ok"; ++i) {
+      const auto matches = matchFeatures(reference.features[i], current.features[i], mutual_nearest);
+      if (!matches) {
+        outcome.status = matches.status().toString();
+        break;
+      }
+      const PointMatches these = toPointMatches(reference.features[i], current.features[i], *matches);
+      all.insert(all.end(), these.begin(), these.end());
+    }
+    if (outcome.status == "ok") {
+      const auto shift = estimateImageShift(all, size.width);
       if (shift) outcome.estimate_px = shift->shift_px; else outcome.status = shift.status().toString();
-    } else {
-      outcome.status = matches.status().toString();
     }
   }
   outcome.time_ms = msSince(start);
@@ -180,7 +198,7 @@ int main(int argc, char** argv) {
                       "  [--methods a,b] (default: all; see the names below) [--max-features 1600] (per image)\n"
                       "  [--tolerance PX] (35: the benchmark's) [--plots 0|1]\n"
                       "  methods: homography, sift_vote, upright_sift_vote, akaze_vote, upright_akaze_vote,\n"
-                      "  upright_orb_vote, mu_lines");
+                      "  upright_orb_vote, brief_vote, upright_akaze_brief_vote, upright_akaze_sift_brief_vote, mu_lines");
   args.parse(argc, argv);
   if (args.text("data").empty() || args.text("out").empty()) args.fail("--data and --out are required");
   const int max_features = args.integer("max-features");
