@@ -47,12 +47,13 @@ Window fullestWindow(const std::vector<double>& sorted, double width, double exc
 }  // namespace
 
 Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
-                                        const ImageShiftOptions& options) {
+                                        const ImageShiftOptions& options, std::optional<double> centre_x) {
   options.validate();
   if (image_width <= 0) return Status(StatusCode::kInvalidInput, "image width must be > 0");
+  if (centre_x && !std::isfinite(*centre_x)) return Status(StatusCode::kInvalidInput, "the centre x is not finite");
   const double window = options.window_fraction * image_width;
   const double vertical_limit = options.vertical_limit_fraction * image_width;
-  const double centre = 0.5 * image_width;
+  const double centre = centre_x ? *centre_x : 0.5 * image_width;
   std::vector<double> dx, x;  // x difference and reference x (from the image centre)
   dx.reserve(matches.size());
   x.reserve(matches.size());

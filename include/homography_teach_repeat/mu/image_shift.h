@@ -8,6 +8,8 @@
 // seasons (docs/evaluation.md, "Heading across seasons").
 #pragma once
 
+#include <optional>
+
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/point_match.h"
 
@@ -45,10 +47,12 @@ struct ImageShift {
   int matches = 0;         // matches within the vertical limit
 };
 
-// `image_width` [px] scales the window and the vertical limit. Status: kInvalidInput (width <= 0
-// or a non-finite pixel), kTooFewPoints (fewer than min_support matches within the vertical
-// limit), kNoConsensus (no window with min_support matches).
+// `image_width` [px] scales the window and the vertical limit. The shift is taken at `centre_x`
+// [px] (the principal point's x for a heading; default the image's middle, width / 2). Status:
+// kInvalidInput (width <= 0, a non-finite centre or pixel), kTooFewPoints (fewer than min_support
+// matches within the vertical limit), kNoConsensus (no window with min_support matches).
 Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
-                                        const ImageShiftOptions& options = ImageShiftOptions());
+                                        const ImageShiftOptions& options = ImageShiftOptions(),
+                                        std::optional<double> centre_x = std::nullopt);
 
 }  // namespace homography_teach_repeat

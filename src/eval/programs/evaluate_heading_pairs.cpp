@@ -29,7 +29,7 @@
 #include "homography_teach_repeat/features/vertical_lines.h"
 #include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
-#include "homography_teach_repeat/mu/image_shift.h"
+#include "homography_teach_repeat/mu/shift_heading.h"
 
 using namespace homography_teach_repeat;
 namespace fs = std::filesystem;
@@ -48,7 +48,7 @@ struct Method {
   std::string name;
   std::string description;
   Estimator estimator = Estimator::kVote;
-  std::vector<FeatureOptions> features;  // kVote: the matches of every set vote together
+  std::vector<FeatureOptions> features;  // kVote: the matches of every set vote together (ShiftHeading)
 };
 
 std::vector<Method> allMethods(int max_features) {
@@ -72,8 +72,8 @@ std::vector<Method> allMethods(int max_features) {
       {"upright_akaze_vote", "upright AKAZE" + vote, Estimator::kVote, {upright_akaze}},
       {"upright_orb_vote", "upright ORB" + vote, Estimator::kVote, {upright_orb}},
       {"brief_vote", "BRIEF on AGAST corners" + vote, Estimator::kVote, {brief}},
-      {"upright_akaze_brief_vote", "upright AKAZE and BRIEF, each mutual nearest, one shift vote", Estimator::kVote,
-       {upright_akaze, brief}},
+      {"shift_heading", "the repeat's seasonal heading fix (mu/shift_heading.h): upright AKAZE and BRIEF, each mutual nearest, one shift vote",
+       Estimator::kVote, ShiftHeadingOptions::defaultFeatures()},
       {"upright_akaze_sift_brief_vote", "upright AKAZE, upright SIFT and BRIEF, each mutual nearest, one shift vote",
        Estimator::kVote, {upright_akaze, upright_sift, brief}},
       {"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, {}},
@@ -102,35 +102,40 @@ struct Outcome {
 
 // What a method extracted from one image.
 struct Extracted {
-  std::vector<ImageFeatures> features;  // one per feature set of the method
+  std::vector<ImageFeatures> features;  // kHomography: the one feature set
+  std::optional<ShiftFeatures> shift;   // kVote
   std::optional<std::vector<VerticalLine>> lines;
   std::string problem;
   double time_ms = 0.0;
 };
 
-Extracted extract(const Method& method, const cv::Mat& image) {
+ShiftHeading shiftHeadingOf(const Method& method) {
+  ShiftHeadingOptions options;
+  options.features = method.features;
+  return ShiftHeading(options);
+}
+
+Extracted extract(const Method& method, ShiftHeading* heading, const cv::Mat& image) {
   Extracted e;
   const auto start = Clock::now();
   if (method.estimator == Estimator::kLines) {
     VerticalLineExtractor extractor;
     auto lines = extractor.extract(image);
     if (lines) e.lines = std::move(*lines); else e.problem = lines.status().toString();
+  } else if (method.estimator == Estimator::kVote) {
+    auto shift = heading->describe(image);
+    if (shift) e.shift = std::move(*shift); else e.problem = shift.status().toString();
   } else {
-    for (const FeatureOptions& options : method.features) {
-      FeatureExtractor extractor(options);
-      auto features = extractor.extract(image);
-      if (!features) {
-        e.problem = features.status().toString();
-        break;
-      }
-      e.features.push_back(std::move(*features));
-    }
+    FeatureExtractor extractor(method.features.front());
+    auto features = extractor.extract(image);
+    if (features) e.features.push_back(std::move(*features)); else e.problem = features.status().toString();
   }
   e.time_ms = msSince(start);
   return e;
 }
 
-Outcome measure(const Method& method, const Extracted& reference, const Extracted& current, const cv::Size& size) {
+Outcome measure(const Method& method, const ShiftHeading* heading, const Extracted& reference,
+                const Extracted& current, const cv::Size& size) {
   Outcome outcome;
   if (!reference.problem.empty() || !current.problem.empty()) {
     outcome.status = reference.problem.empty() ? current.problem : reference.problem;
@@ -159,22 +164,9 @@ Outcome measure(const Method& method, const Extracted& reference, const Extracte
       outcome.status = registration.status().toString();
     }
   } else {
-    MatchOptions mutual_nearest;
-    mutual_nearest.ratio = 1.0;
-    PointMatches all;
-    for (std::size_t i = 0; i < reference.features.size() && outcome.status == "ok"; ++i) {
-      const auto matches = matchFeatures(reference.features[i], current.features[i], mutual_nearest);
-      if (!matches) {
-        outcome.status = matches.status().toString();
-        break;
-      }
-      const PointMatches these = toPointMatches(reference.features[i], current.features[i], *matches);
-      all.insert(all.end(), these.begin(), these.end());
-    }
-    if (outcome.status == "ok") {
-      const auto shift = estimateImageShift(all, size.width);
-      if (shift) outcome.estimate_px = shift->shift_px; else outcome.status = shift.status().toString();
-    }
+    // The benchmark's images have no calibration: the shift at the image's middle.
+    const auto fix = heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
+    if (fix) outcome.estimate_px = fix->mu; else outcome.status = fix.status().toString();
   }
   outcome.time_ms = msSince(start);
   return outcome;
@@ -198,7 +190,8 @@ int main(int argc, char** argv) {
                       "  [--methods a,b] (default: all; see the names below) [--max-features 1600] (per image)\n"
                       "  [--tolerance PX] (35: the benchmark's) [--plots 0|1]\n"
                       "  methods: homography, sift_vote, upright_sift_vote, akaze_vote, upright_akaze_vote,\n"
-                      "  upright_orb_vote, brief_vote, upright_akaze_brief_vote, upright_akaze_sift_brief_vote, mu_lines");
+                      "  upright_orb_vote, brief_vote, shift_heading (the repeat's seasonal fix: upright AKAZE + BRIEF),\n"
+                      "  upright_akaze_sift_brief_vote, mu_lines");
   args.parse(argc, argv);
   if (args.text("data").empty() || args.text("out").empty()) args.fail("--data and --out are required");
   const int max_features = args.integer("max-features");
@@ -249,11 +242,14 @@ int main(int argc, char** argv) {
                         {"truth_px", pair.true_shift_px}, {"methods", nlohmann::ordered_json::object()}});
   }
   for (const Method& method : methods) {
+    std::optional<ShiftHeading> heading;
+    if (method.estimator == Estimator::kVote) heading = shiftHeadingOf(method);
+    ShiftHeading* vote = heading ? &*heading : nullptr;
     std::map<std::string, Extracted> extracted;
     double extract_ms = 0.0;
     double lines_total = 0.0;
     for (const auto& [path, image] : images) {
-      extracted[path] = extract(method, image);
+      extracted[path] = extract(method, vote, image);
       extract_ms += extracted[path].time_ms;
       if (extracted[path].lines) lines_total += static_cast<double>(extracted[path].lines->size());
     }
@@ -263,7 +259,7 @@ int main(int argc, char** argv) {
     std::vector<double> errors;
     for (std::size_t i = 0; i < pairs->size(); ++i) {
       const auto& pair = (*pairs)[i];
-      const Outcome outcome = measure(method, extracted[pair.reference_image], extracted[pair.current_image],
+      const Outcome outcome = measure(method, vote, extracted[pair.reference_image], extracted[pair.current_image],
                                       images[pair.reference_image].size());
       pair_ms += outcome.time_ms;
       const bool failed = eval::headingPairFailed(outcome.estimate_px, pair.true_shift_px, tolerance);

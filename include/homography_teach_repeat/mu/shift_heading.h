@@ -1,0 +1,65 @@
+// The heading fix that holds across seasons (docs/math.md §4.10, docs/evaluation.md "Heading across
+// seasons"): upright AKAZE and BRIEF features of a reference view and of the current view, each
+// type matched by mutual nearest neighbours, and one vote on the horizontal image shift at the
+// principal point (mu/image_shift.h). The shift is μ of the 1D homography (docs/math.md §4.5):
+// the heading plus the coupling to a lateral offset, for the localization filter's μ model.
+// On the GRIEF seasonal benchmark it fails 2.4 % (campus) and 0.6 % (park) of 330 pairs each.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/mu/image_shift.h"
+
+namespace homography_teach_repeat {
+
+struct ShiftHeadingOptions {
+  // The feature types that vote together (each matched within its own type). Default: upright
+  // AKAZE and BRIEF, 1600 of each per image.
+  std::vector<FeatureOptions> features = defaultFeatures();
+  ImageShiftOptions vote;
+  // [px²] The variance of μ is the vote's standard error squared plus this (> 0): the parallax of
+  // the scene's depths that the vote averages (docs/math.md §4.10) and the matches' shared error.
+  double min_variance_px2 = 4.0;
+
+  static std::vector<FeatureOptions> defaultFeatures();
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// The features of one view, one set per feature type of the options.
+struct ShiftFeatures {
+  std::vector<ImageFeatures> sets;
+  cv::Size image_size;
+};
+
+struct ShiftHeadingFix {
+  double mu = 0.0;        // current x − reference x at the principal point [px]
+  double variance = 0.0;  // [px²]
+  ImageShift shift;       // the vote (support, runner-up, scale)
+  int matches = 0;        // mutual nearest matches of all types
+};
+
+class ShiftHeading {
+ public:
+  // Throws std::invalid_argument on invalid options (an unavailable feature type included).
+  explicit ShiftHeading(const ShiftHeadingOptions& options = ShiftHeadingOptions());
+
+  // Status: the extractor's (kInvalidInput for an empty or unsupported image).
+  Expected<ShiftFeatures> describe(const cv::Mat& image);
+  // `principal_x` [px]: where the shift is taken (the camera's cx; the image's middle without a
+  // calibration). Status: kInvalidInput (views of different sizes or feature sets, a non-finite
+  // principal_x), otherwise the vote's (kTooFewPoints, kNoConsensus).
+  Expected<ShiftHeadingFix> measure(const ShiftFeatures& reference, const ShiftFeatures& current,
+                                    double principal_x) const;
+
+  const ShiftHeadingOptions& options() const { return options_; }
+
+ private:
+  ShiftHeadingOptions options_;
+  std::vector<FeatureExtractor> extractors_;
+};
+
+}  // namespace homography_teach_repeat

@@ -1,0 +1,77 @@
+#include "homography_teach_repeat/mu/shift_heading.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "homography_teach_repeat/features/feature_matcher.h"
+
+namespace homography_teach_repeat {
+
+std::vector<FeatureOptions> ShiftHeadingOptions::defaultFeatures() {
+  FeatureOptions akaze;
+  akaze.type = FeatureType::kAkaze;
+  akaze.max_features = 1600;
+  akaze.upright = true;
+  FeatureOptions brief;
+  brief.type = FeatureType::kBrief;
+  brief.max_features = 1600;
+  return {akaze, brief};
+}
+
+void ShiftHeadingOptions::validate() const {
+  if (features.empty()) throw std::invalid_argument("shift heading: at least one feature type is needed");
+  for (const FeatureOptions& f : features) f.validate();
+  vote.validate();
+  if (!(min_variance_px2 > 0.0) || !std::isfinite(min_variance_px2)) {
+    throw std::invalid_argument("shift heading: min_variance_px2 must be > 0");
+  }
+}
+
+ShiftHeading::ShiftHeading(const ShiftHeadingOptions& options) : options_(options) {
+  options_.validate();
+  for (const FeatureOptions& f : options_.features) extractors_.emplace_back(f);
+}
+
+Expected<ShiftFeatures> ShiftHeading::describe(const cv::Mat& image) {
+  ShiftFeatures described;
+  described.image_size = image.size();
+  for (FeatureExtractor& extractor : extractors_) {
+    auto features = extractor.extract(image);
+    if (!features) return features.status();
+    described.sets.push_back(std::move(*features));
+  }
+  return described;
+}
+
+Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, const ShiftFeatures& current,
+                                                double principal_x) const {
+  if (reference.image_size != current.image_size) {
+    return Status(StatusCode::kInvalidInput, "the views differ in size (" + std::to_string(reference.image_size.width) +
+                                                 "x" + std::to_string(reference.image_size.height) + " and " +
+                                                 std::to_string(current.image_size.width) + "x" +
+                                                 std::to_string(current.image_size.height) + ")");
+  }
+  if (reference.sets.size() != extractors_.size() || current.sets.size() != extractors_.size()) {
+    return Status(StatusCode::kInvalidInput, "the views were not described with these feature types");
+  }
+  MatchOptions mutual_nearest;
+  mutual_nearest.ratio = 1.0;
+  PointMatches all;
+  for (std::size_t i = 0; i < extractors_.size(); ++i) {
+    const auto matches = matchFeatures(reference.sets[i], current.sets[i], mutual_nearest);
+    if (!matches) return matches.status();
+    const PointMatches these = toPointMatches(reference.sets[i], current.sets[i], *matches);
+    all.insert(all.end(), these.begin(), these.end());
+  }
+  const auto shift = estimateImageShift(all, reference.image_size.width, options_.vote, principal_x);
+  if (!shift) return shift.status();
+  ShiftHeadingFix fix;
+  fix.mu = shift->shift_px;
+  fix.variance = shift->sigma_px * shift->sigma_px + options_.min_variance_px2;
+  fix.shift = *shift;
+  fix.matches = static_cast<int>(all.size());
+  return fix;
+}
+
+}  // namespace homography_teach_repeat

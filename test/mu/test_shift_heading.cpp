@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "homography_teach_repeat/mu/shift_heading.h"
+#include "support/test_images.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+// A 640 x 480 view of a textured scene, the camera turned so the scene moves `shift` px to the
+// right, the light changed by `gain` and `offset`.
+cv::Mat view(const cv::Mat& scene, int shift, double gain = 1.0, double offset = 0.0) {
+  cv::Mat image = scene(cv::Rect(100 - shift, 0, 640, 480)).clone();
+  if (gain != 1.0 || offset != 0.0) image.convertTo(image, -1, gain, offset);
+  return image;
+}
+
+}  // namespace
+
+TEST(ShiftHeading, MeasuresTheShiftOfATurnedViewUnderOtherLight) {
+  const cv::Mat scene = test_support::makeTexture(840, 480, 31);
+  ShiftHeading heading;
+  const auto reference = heading.describe(view(scene, 0));
+  ASSERT_TRUE(reference.isOk()) << reference.status().toString();
+  ASSERT_EQ(reference->sets.size(), 2u);  // upright AKAZE and BRIEF
+  for (const int shift : {-60, -7, 0, 25, 90}) {
+    const auto current = heading.describe(view(scene, shift, 0.7, 25.0));
+    ASSERT_TRUE(current.isOk());
+    const auto fix = heading.measure(*reference, *current, 320.0);
+    ASSERT_TRUE(fix.isOk()) << fix.status().toString();
+    EXPECT_NEAR(fix->mu, shift, 1.0) << "shift " << shift;
+    EXPECT_GT(fix->shift.support, 50);
+    EXPECT_GE(fix->variance, heading.options().min_variance_px2);
+    EXPECT_LT(fix->variance, heading.options().min_variance_px2 + 1.0);
+  }
+}
+
+TEST(ShiftHeading, UnrelatedViewsGiveNoFixOrASmallSupport) {
+  ShiftHeading heading;
+  const auto a = heading.describe(test_support::makeTexture(640, 480, 32));
+  const auto b = heading.describe(test_support::makeTexture(640, 480, 33));
+  ASSERT_TRUE(a.isOk() && b.isOk());
+  const auto fix = heading.measure(*a, *b, 320.0);
+  if (fix) {
+    // Random matches agree by chance in a window of 22 px: a few, never the hundreds of a real view.
+    EXPECT_LT(fix->shift.support, 30);
+    EXPECT_GT(fix->shift.runner_up_support, fix->shift.support / 3);
+  }
+}
+
+TEST(ShiftHeading, BadInputIsAStatus) {
+  ShiftHeading heading;
+  const cv::Mat scene = test_support::makeTexture(840, 480, 34);
+  const auto a = heading.describe(view(scene, 0));
+  ASSERT_TRUE(a.isOk());
+  cv::Mat small;
+  cv::resize(view(scene, 0), small, cv::Size(320, 240));
+  const auto b = heading.describe(small);
+  ASSERT_TRUE(b.isOk());
+  EXPECT_EQ(heading.measure(*a, *b, 320.0).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(heading.measure(*a, *a, std::nan("")).status().code(), StatusCode::kInvalidInput);
+  ShiftFeatures fewer = *a;
+  fewer.sets.pop_back();
+  EXPECT_EQ(heading.measure(*a, fewer, 320.0).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(heading.describe(cv::Mat()).status().code(), StatusCode::kInvalidInput);
+  const auto blank = heading.describe(cv::Mat(480, 640, CV_8UC1, cv::Scalar(80)));
+  ASSERT_TRUE(blank.isOk());
+  EXPECT_EQ(heading.measure(*blank, *blank, 320.0).status().code(), StatusCode::kTooFewPoints);
+  ShiftHeadingOptions options;
+  options.features.clear();
+  EXPECT_THROW(ShiftHeading{options}, std::invalid_argument);
+  options = ShiftHeadingOptions();
+  options.min_variance_px2 = 0.0;
+  EXPECT_THROW(ShiftHeading{options}, std::invalid_argument);
+}
