@@ -47,10 +47,17 @@ Window fullestWindow(const std::vector<double>& sorted, double width, double exc
 }  // namespace
 
 Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
-                                        const ImageShiftOptions& options, std::optional<double> centre_x) {
+                                        const ImageShiftOptions& options, std::optional<double> centre_x,
+                                        std::optional<double> focal_px) {
   options.validate();
   if (image_width <= 0) return Status(StatusCode::kInvalidInput, "image width must be > 0");
   if (centre_x && !std::isfinite(*centre_x)) return Status(StatusCode::kInvalidInput, "the centre x is not finite");
+  if (focal_px && !(*focal_px > 0.0 && std::isfinite(*focal_px))) {
+    return Status(StatusCode::kInvalidInput, "the focal length must be finite and > 0");
+  }
+  // With a focal length the vote runs on f·atan(x/f) (angles in pixels at the centre), where a
+  // rotation is exactly a shift; the result goes back to pixels at the centre, f·tan(shift/f).
+  const auto angular = [&](double centred_x) { return focal_px ? *focal_px * std::atan(centred_x / *focal_px) : centred_x; };
   const double window = options.window_fraction * image_width;
   const double vertical_limit = options.vertical_limit_fraction * image_width;
   const double centre = centre_x ? *centre_x : 0.5 * image_width;
@@ -62,8 +69,9 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
       return Status(StatusCode::kInvalidInput, "a match has a non-finite pixel");
     }
     if (std::abs(m.current.y() - m.reference.y()) > vertical_limit) continue;
-    dx.push_back(m.current.x() - m.reference.x());
-    x.push_back(m.reference.x() - centre);
+    const double reference_x = angular(m.reference.x() - centre);
+    dx.push_back(angular(m.current.x() - centre) - reference_x);
+    x.push_back(reference_x);
   }
   ImageShift shift;
   shift.matches = static_cast<int>(dx.size());
@@ -125,6 +133,13 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
   shift.sigma_px = shift.spread_px / std::sqrt(static_cast<double>(kept));
   shift.runner_up_support =
       fullestWindow(best_centred, window, shift.shift_px - window, shift.shift_px + window).count;
+  if (focal_px) {
+    const double t = std::tan(shift.shift_px / *focal_px);
+    const double slope = 1.0 + t * t;  // d(f tan(a/f))/da
+    shift.shift_px = *focal_px * t;
+    shift.spread_px *= slope;
+    shift.sigma_px *= slope;
+  }
   return shift;
 }
 

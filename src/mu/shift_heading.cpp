@@ -45,7 +45,7 @@ Expected<ShiftFeatures> ShiftHeading::describe(const cv::Mat& image) {
 }
 
 Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, const ShiftFeatures& current,
-                                                double principal_x) const {
+                                                double principal_x, std::optional<double> focal_px) const {
   if (reference.image_size != current.image_size) {
     return Status(StatusCode::kInvalidInput, "the views differ in size (" + std::to_string(reference.image_size.width) +
                                                  "x" + std::to_string(reference.image_size.height) + " and " +
@@ -64,7 +64,7 @@ Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, 
     const PointMatches these = toPointMatches(reference.sets[i], current.sets[i], *matches);
     all.insert(all.end(), these.begin(), these.end());
   }
-  const auto shift = estimateImageShift(all, reference.image_size.width, options_.vote, principal_x);
+  const auto shift = estimateImageShift(all, reference.image_size.width, options_.vote, principal_x, focal_px);
   if (!shift) return shift.status();
   ShiftHeadingFix fix;
   fix.mu = shift->shift_px;

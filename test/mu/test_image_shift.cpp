@@ -134,3 +134,27 @@ TEST(ImageShift, AViewScaledAboutTheCentreStillGivesTheCentreShift) {
   EXPECT_EQ(unscaled->scale, 1.0);
   EXPECT_LT(unscaled->support, 35);  // the window holds only part of the spread
 }
+
+// A pure rotation moves a point x px from the centre by more than the centre (x²θ/f): with the
+// focal length the vote runs on angles and the centre's shift comes out exactly.
+TEST(ImageShift, WithTheFocalLengthARotationGivesTheCentreShiftExactly) {
+  const double f = 512.0, theta = 5.0 * M_PI / 180.0, cx = 320.0;
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> x(0.0, 640.0), y(0.0, 480.0);
+  PointMatches matches;
+  for (int i = 0; i < 80; ++i) {
+    const Eigen::Vector2d p(x(rng), y(rng));
+    const double turned = cx + f * std::tan(std::atan((p.x() - cx) / f) + theta);
+    if (turned < 0.0 || turned > 640.0) continue;
+    matches.push_back({p, Eigen::Vector2d(turned, p.y())});
+  }
+  ImageShiftOptions shifts_only;
+  shifts_only.max_scale_change = 0.0;
+  const auto exact = estimateImageShift(matches, 640, shifts_only, cx, f);
+  ASSERT_TRUE(exact.isOk());
+  EXPECT_NEAR(exact->shift_px, f * std::tan(theta), 1e-6);
+  const auto pixels = estimateImageShift(matches, 640, shifts_only, cx);
+  ASSERT_TRUE(pixels.isOk());
+  EXPECT_GT(pixels->shift_px - f * std::tan(theta), 1.0);  // the x²θ/f bias
+  EXPECT_EQ(estimateImageShift(matches, 640, shifts_only, cx, 0.0).status().code(), StatusCode::kInvalidInput);
+}

@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <optional>
 #include <vector>
 
 #include "homography_teach_repeat/common/status.h"
@@ -50,10 +51,11 @@ class ShiftHeading {
   // Status: the extractor's (kInvalidInput for an empty or unsupported image).
   Expected<ShiftFeatures> describe(const cv::Mat& image);
   // `principal_x` [px]: where the shift is taken (the camera's cx; the image's middle without a
-  // calibration). Status: kInvalidInput (views of different sizes or feature sets, a non-finite
-  // principal_x), otherwise the vote's (kTooFewPoints, kNoConsensus).
+  // calibration); `focal_px`: the camera's fx, when known (the vote then runs on angles,
+  // estimateImageShift). Status: kInvalidInput (views of different sizes or feature sets, a
+  // non-finite principal_x, a focal length <= 0), otherwise the vote's (kTooFewPoints, kNoConsensus).
   Expected<ShiftHeadingFix> measure(const ShiftFeatures& reference, const ShiftFeatures& current,
-                                    double principal_x) const;
+                                    double principal_x, std::optional<double> focal_px = std::nullopt) const;
 
   const ShiftHeadingOptions& options() const { return options_; }
 
