@@ -26,6 +26,9 @@ void ShiftHeadingOptions::validate() const {
   if (!(min_variance_px2 > 0.0) || !std::isfinite(min_variance_px2)) {
     throw std::invalid_argument("shift heading: min_variance_px2 must be > 0");
   }
+  if (!(ambiguity_ratio > 0.0 && ambiguity_ratio <= 1.0)) {
+    throw std::invalid_argument("shift heading: ambiguity_ratio must be in (0, 1]");
+  }
 }
 
 ShiftHeading::ShiftHeading(const ShiftHeadingOptions& options) : options_(options) {
@@ -71,6 +74,7 @@ Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, 
   fix.variance = shift->sigma_px * shift->sigma_px + options_.min_variance_px2;
   fix.shift = *shift;
   fix.matches = static_cast<int>(all.size());
+  fix.ambiguous = shift->runner_up_support >= options_.ambiguity_ratio * shift->support;
   return fix;
 }
 

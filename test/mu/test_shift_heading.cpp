@@ -32,9 +32,26 @@ TEST(ShiftHeading, MeasuresTheShiftOfATurnedViewUnderOtherLight) {
     ASSERT_TRUE(fix.isOk()) << fix.status().toString();
     EXPECT_NEAR(fix->mu, shift, 1.0) << "shift " << shift;
     EXPECT_GT(fix->shift.support, 50);
+    EXPECT_FALSE(fix->ambiguous);
     EXPECT_GE(fix->variance, heading.options().min_variance_px2);
     EXPECT_LT(fix->variance, heading.options().min_variance_px2 + 1.0);
   }
+}
+
+// Two halves of the view moved differently (a near object's parallax, repeated structure): the
+// fix names the competition.
+TEST(ShiftHeading, TwoCompetingShiftsMakeTheFixAmbiguous) {
+  const cv::Mat scene = test_support::makeTexture(840, 480, 35);
+  ShiftHeadingOptions options;
+  options.vote.max_scale_change = 0.0;  // (halves moved apart are also a view scaled about its centre)
+  ShiftHeading heading(options);
+  const auto reference = heading.describe(view(scene, 0));
+  cv::Mat current = view(scene, 40);
+  view(scene, -40)(cv::Rect(320, 0, 320, 480)).copyTo(current(cv::Rect(320, 0, 320, 480)));
+  const auto fix = heading.measure(*reference, *heading.describe(current), 320.0);
+  ASSERT_TRUE(fix.isOk()) << fix.status().toString();
+  EXPECT_TRUE(fix->ambiguous) << fix->shift.support << " against " << fix->shift.runner_up_support;
+  EXPECT_NEAR(std::abs(fix->mu), 40.0, 2.0);
 }
 
 TEST(ShiftHeading, UnrelatedViewsGiveNoFixOrASmallSupport) {
@@ -73,5 +90,8 @@ TEST(ShiftHeading, BadInputIsAStatus) {
   EXPECT_THROW(ShiftHeading{options}, std::invalid_argument);
   options = ShiftHeadingOptions();
   options.min_variance_px2 = 0.0;
+  EXPECT_THROW(ShiftHeading{options}, std::invalid_argument);
+  options = ShiftHeadingOptions();
+  options.ambiguity_ratio = 0.0;
   EXPECT_THROW(ShiftHeading{options}, std::invalid_argument);
 }

@@ -25,6 +25,11 @@ struct ShiftHeadingOptions {
   // [px²] The variance of μ is the vote's standard error squared plus this (> 0): the parallax of
   // the scene's depths that the vote averages (docs/math.md §4.10) and the matches' shared error.
   double min_variance_px2 = 4.0;
+  // A fix is `ambiguous` when a second shift has at least this share of the winner's support
+  // (repeated structure, a near object's parallax): on the GRIEF benchmark every wrong fix was
+  // (10 of 10, both sites) and 47 of 650 right ones (docs/evaluation.md). The caller decides
+  // (e.g. take it only where the odometry predicts it). In (0, 1].
+  double ambiguity_ratio = 0.6;
 
   static std::vector<FeatureOptions> defaultFeatures();
   void validate() const;  // throws std::invalid_argument naming the bad field
@@ -41,6 +46,7 @@ struct ShiftHeadingFix {
   double variance = 0.0;  // [px²]
   ImageShift shift;       // the vote (support, runner-up, scale)
   int matches = 0;        // mutual nearest matches of all types
+  bool ambiguous = false; // shift.runner_up_support >= ambiguity_ratio · shift.support
 };
 
 class ShiftHeading {

@@ -98,6 +98,8 @@ struct Outcome {
   std::string status = "ok";
   double time_ms = 0.0;
   int line_matches = -1;
+  int support = -1, runner_up_support = -1;  // the vote's
+  bool ambiguous = false;
 };
 
 // What a method extracted from one image.
@@ -166,7 +168,14 @@ Outcome measure(const Method& method, const ShiftHeading* heading, const Extract
   } else {
     // The benchmark's images have no calibration: the shift at the image's middle.
     const auto fix = heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
-    if (fix) outcome.estimate_px = fix->mu; else outcome.status = fix.status().toString();
+    if (fix) {
+      outcome.estimate_px = fix->mu;
+      outcome.support = fix->shift.support;
+      outcome.runner_up_support = fix->shift.runner_up_support;
+      outcome.ambiguous = fix->ambiguous;
+    } else {
+      outcome.status = fix.status().toString();
+    }
   }
   outcome.time_ms = msSince(start);
   return outcome;
@@ -255,6 +264,7 @@ int main(int argc, char** argv) {
     }
     const double extract_ms_per_image = extract_ms / static_cast<double>(images.size());
     int failures = 0, no_estimate = 0, line_matches_total = 0;
+    int ambiguous_right = 0, ambiguous_wrong = 0, wrong_unflagged = 0;  // votes only
     double pair_ms = 0.0;
     std::vector<double> errors;
     for (std::size_t i = 0; i < pairs->size(); ++i) {
@@ -275,6 +285,13 @@ int main(int argc, char** argv) {
         result["estimate_px"] = nullptr;
         result["error_px"] = nullptr;
       }
+      if (outcome.support >= 0) {
+        result["support"] = outcome.support;
+        result["runner_up_support"] = outcome.runner_up_support;
+        result["ambiguous"] = outcome.ambiguous;
+        (failed ? ambiguous_wrong : ambiguous_right) += outcome.ambiguous ? 1 : 0;
+        wrong_unflagged += failed && !outcome.ambiguous ? 1 : 0;
+      }
       if (outcome.line_matches >= 0) {
         result["line_matches"] = outcome.line_matches;
         line_matches_total += outcome.line_matches;
@@ -290,6 +307,13 @@ int main(int argc, char** argv) {
                               {"median_abs_error_px", errors.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(median(errors))},
                               {"extract_ms_per_image", extract_ms_per_image},
                               {"time_per_pair_ms", 2.0 * extract_ms_per_image + pair_ms / n}};
+    if (method.estimator == Estimator::kVote) {
+      // Estimates flagged ambiguous (ShiftHeadingOptions::ambiguity_ratio) that were right / wrong,
+      // and wrong estimates that were not flagged (the ones a repeat would take unquestioned).
+      summary["ambiguous_right"] = ambiguous_right;
+      summary["ambiguous_wrong"] = ambiguous_wrong;
+      summary["wrong_unflagged"] = wrong_unflagged;
+    }
     if (method.estimator == Estimator::kLines) {
       summary["lines_per_image"] = lines_total / static_cast<double>(images.size());
       summary["line_matches_per_pair"] = line_matches_total / n;
