@@ -1,11 +1,12 @@
 #include "homography_teach_repeat/eval/heading_pairs.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <map>
-#include <regex>
 #include <set>
 #include <sstream>
 
@@ -40,11 +41,14 @@ Expected<std::vector<HeadingPair>> readGriefSite(const fs::path& site) {
   std::map<int, std::set<int>> visits_of_place;  // place -> visits
   std::error_code error;
   if (fs::is_directory(images, error)) {
-    const std::regex name("([0-9]{2})([0-9]{2})\\.png");
     for (const auto& entry : fs::directory_iterator(images, error)) {
-      std::smatch m;
-      const std::string file = entry.path().filename().string();
-      if (std::regex_match(file, m, name)) visits_of_place[std::stoi(m[2])].insert(std::stoi(m[1]));
+      const std::string file = entry.path().filename().string();  // MMLL.png
+      const bool digits = file.size() == 8 && std::all_of(file.begin(), file.begin() + 4, [](char c) {
+                            return std::isdigit(static_cast<unsigned char>(c)) != 0;
+                          });
+      if (digits && file.compare(4, 4, ".png") == 0) {
+        visits_of_place[std::stoi(file.substr(2, 2))].insert(std::stoi(file.substr(0, 2)));
+      }
     }
   }
   if (visits_of_place.empty()) {
