@@ -111,25 +111,33 @@ struct Extracted {
   double time_ms = 0.0;
 };
 
-ShiftHeading shiftHeadingOf(const Method& method) {
-  ShiftHeadingOptions options;
-  options.features = method.features;
-  return ShiftHeading(options);
-}
+// A method's extractor, made once for all its images.
+struct Extractors {
+  explicit Extractors(const Method& method) {
+    if (method.estimator == Estimator::kVote) {
+      ShiftHeadingOptions options;
+      options.features = method.features;
+      heading.emplace(options);
+    } else if (method.estimator == Estimator::kHomography) {
+      points.emplace(method.features.front());
+    }
+  }
+  std::optional<ShiftHeading> heading;
+  std::optional<FeatureExtractor> points;
+  VerticalLineExtractor lines;
+};
 
-Extracted extract(const Method& method, ShiftHeading* heading, const cv::Mat& image) {
+Extracted extract(const Method& method, Extractors& extractors, const cv::Mat& image) {
   Extracted e;
   const auto start = Clock::now();
   if (method.estimator == Estimator::kLines) {
-    VerticalLineExtractor extractor;
-    auto lines = extractor.extract(image);
+    auto lines = extractors.lines.extract(image);
     if (lines) e.lines = std::move(*lines); else e.problem = lines.status().toString();
   } else if (method.estimator == Estimator::kVote) {
-    auto shift = heading->describe(image);
+    auto shift = extractors.heading->describe(image);
     if (shift) e.shift = std::move(*shift); else e.problem = shift.status().toString();
   } else {
-    FeatureExtractor extractor(method.features.front());
-    auto features = extractor.extract(image);
+    auto features = extractors.points->extract(image);
     if (features) e.features.push_back(std::move(*features)); else e.problem = features.status().toString();
   }
   e.time_ms = msSince(start);
@@ -251,14 +259,13 @@ int main(int argc, char** argv) {
                         {"truth_px", pair.true_shift_px}, {"methods", nlohmann::ordered_json::object()}});
   }
   for (const Method& method : methods) {
-    std::optional<ShiftHeading> heading;
-    if (method.estimator == Estimator::kVote) heading = shiftHeadingOf(method);
-    ShiftHeading* vote = heading ? &*heading : nullptr;
+    Extractors extractors(method);
+    const ShiftHeading* vote = extractors.heading ? &*extractors.heading : nullptr;
     std::map<std::string, Extracted> extracted;
     double extract_ms = 0.0;
     double lines_total = 0.0;
     for (const auto& [path, image] : images) {
-      extracted[path] = extract(method, vote, image);
+      extracted[path] = extract(method, extractors, image);
       extract_ms += extracted[path].time_ms;
       if (extracted[path].lines) lines_total += static_cast<double>(extracted[path].lines->size());
     }
