@@ -3,6 +3,8 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <image_transport/camera_common.h>
+#include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -13,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <optional>
@@ -52,6 +55,30 @@ inline geometry_msgs::TransformStamped levelCameraMount(double x_ahead) {
   mount.transform.rotation.w = 0.5;
   return mount;
 }
+
+// A camera driver for the tests: an image topic (image_transport) and its camera_info topic, each
+// advertised on its own so that the test can wait until a node's synchronised camera subscriber
+// has connected to both (image_transport::CameraPublisher counts the better-connected one of the
+// two: an image published before the camera_info connection is up is never answered).
+class TestCamera {
+ public:
+  TestCamera(ros::NodeHandle nh, const std::string& image_topic, uint32_t queue_size)
+      : image_(image_transport::ImageTransport(nh).advertise(image_topic, queue_size)),
+        info_(nh.advertise<sensor_msgs::CameraInfo>(
+            image_transport::getCameraInfoTopic(nh.resolveName(image_topic)), queue_size)) {}
+
+  // The subscribers connected to both topics (the smaller of the two counts).
+  uint32_t getNumSubscribers() const { return std::min(image_.getNumSubscribers(), info_.getNumSubscribers()); }
+
+  void publish(const sensor_msgs::Image& image, const sensor_msgs::CameraInfo& info) const {
+    image_.publish(image);
+    info_.publish(info);
+  }
+
+ private:
+  image_transport::Publisher image_;
+  ros::Publisher info_;
+};
 
 // Odometry of base_link in odom at (x, y, yaw).
 inline nav_msgs::Odometry makeOdometry(const ros::Time& stamp, double x, double y, double yaw) {

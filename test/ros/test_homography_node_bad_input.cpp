@@ -2,7 +2,6 @@
 // constructor fails loudly on bad parameters.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
-#include <image_transport/image_transport.h>
 #include <opencv2/imgcodecs.hpp>
 #include <ros/ros.h>
 
@@ -21,8 +20,7 @@ const std::string kGraf3 = "/usr/share/doc/opencv-doc/examples/data/graf3.png";
 class BadInput : public ::testing::Test {
  protected:
   void SetUp() override {
-    camera_ = std::make_unique<image_transport::CameraPublisher>(
-        image_transport::ImageTransport(nh_).advertiseCamera("camera/image_raw", 1));
+    camera_ = std::make_unique<test_support::TestCamera>(nh_, "camera/image_raw", 1);
     homography_subscriber_ = nh_.subscribe<HomographyStamped>(
         "homography_node/homography", 10,
         [this](const HomographyStamped::ConstPtr&) { ++homographies_; });
@@ -54,7 +52,7 @@ class BadInput : public ::testing::Test {
   }
 
   ros::NodeHandle nh_;
-  std::unique_ptr<image_transport::CameraPublisher> camera_;
+  std::unique_ptr<test_support::TestCamera> camera_;
   ros::Subscriber homography_subscriber_, diagnostics_subscriber_;
   diagnostic_msgs::DiagnosticStatus last_;
   int homographies_ = 0;

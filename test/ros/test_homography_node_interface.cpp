@@ -20,7 +20,7 @@ TEST(HomographyNodeInterface, PublishesTheGroundTruthHomography) {
   const Eigen::Matrix3d& truth = *truth_file;
 
   image_transport::ImageTransport transport(nh);
-  image_transport::CameraPublisher camera = transport.advertiseCamera("camera/image_raw", 1);
+  test_support::TestCamera camera(nh, "camera/image_raw", 1);
   HomographyStamped::ConstPtr received;
   sensor_msgs::ImageConstPtr debug_image;
   const image_transport::Subscriber debug_subscriber = transport.subscribe(

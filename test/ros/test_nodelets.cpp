@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
-#include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <std_msgs/String.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -27,8 +26,7 @@ TEST(Nodelets, LoadAndServeTheirInterfaces) {
       "teach_node/status", 1, [&](const auto& m) { teach_state = m->state; });
   ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
       "repeat_node/pose", 5, [&](const auto&) { ++poses; });
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   ASSERT_TRUE(test_support::spinUntil(
       [&] { return markers > 0 && !controller_state.empty() && !teach_state.empty(); }, 60.0))
       << "markers " << markers << ", controller '" << controller_state << "', teach '" << teach_state << "'";

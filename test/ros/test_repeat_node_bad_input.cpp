@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
-#include <image_transport/image_transport.h>
 #include <ros/ros.h>
 
 #include <filesystem>
@@ -18,8 +17,7 @@ using namespace homography_teach_repeat;
 
 TEST(RepeatNode, BadInputIsReportedAndSurvived) {
   ros::NodeHandle nh;
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   std::vector<HeadingCorrectionStamped> headings;
   int poses = 0;
   ros::Subscriber heading_sub = nh.subscribe<HeadingCorrectionStamped>(

@@ -4,7 +4,6 @@
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
-#include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -42,8 +41,7 @@ void publishOdometryAround(const ros::Publisher& publisher, double stamp, double
 
 TEST(RepeatNode, PosesHeadingAndMarkers) {
   ros::NodeHandle nh;
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
   std::vector<HeadingCorrectionStamped> headings;
   visualization_msgs::MarkerArray markers;
@@ -169,8 +167,7 @@ std::string reconfigureMode(const std::string& mode) {
 // lines and, with odometry, the heading-aided pose; an unknown mode is refused.
 TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
   ros::NodeHandle nh;
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
   std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
   std::vector<HeadingCorrectionStamped> headings;
@@ -256,8 +253,7 @@ TEST(RepeatNode, ReconfiguredToMuModeWithOdometry) {
 // naming the odometry disagreement, and no pose.
 TEST(RepeatNode, OdometryGateRefusesAPoseOdometryContradicts) {
   ros::NodeHandle nh;
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 10);
   std::vector<geometry_msgs::PoseWithCovarianceStamped> poses;
   std::vector<HeadingCorrectionStamped> headings;

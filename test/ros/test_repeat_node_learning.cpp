@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
-#include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
@@ -21,8 +20,7 @@ using namespace homography_teach_repeat;
 TEST(RepeatNodeLearning, SavesTheViewsItLearnedIntoTheRoute) {
   ros::NodeHandle nh, private_nh("~");
   const std::string directory = private_nh.param<std::string>("route_directory", "");
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 2);
+  test_support::TestCamera camera(nh, "camera/image_raw", 2);
   ros::Publisher odometry = nh.advertise<nav_msgs::Odometry>("odom", 20);
   int poses = 0;
   ros::Subscriber pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(

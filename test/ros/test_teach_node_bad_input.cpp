@@ -3,7 +3,6 @@
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
-#include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -21,8 +20,7 @@ TEST(TeachNode, BadInputIsReportedAndSurvived) {
   tf2_ros::StaticTransformBroadcaster static_tf;
   static_tf.sendTransform(test_support::levelCameraMount(0.0));
 
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 5);
+  test_support::TestCamera camera(nh, "camera/image_raw", 5);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 20);
   TeachStatus status;
   ros::Subscriber status_sub = nh.subscribe<TeachStatus>(

@@ -8,7 +8,6 @@
 //    0555 directory is checked too when the test does not run as root.
 #include <gtest/gtest.h>
 
-#include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sys/stat.h>
@@ -42,8 +41,7 @@ TEST(TeachNodeFaults, SigkillMidRouteLosesAtMostTheKeyframeBeingWritten) {
   ASSERT_TRUE(ros::param::get("/killed_teach_node/route_directory", route_dir));
   tf2_ros::StaticTransformBroadcaster static_tf;
   static_tf.sendTransform(test_support::levelCameraMount(0.0));
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera = it.advertiseCamera("camera/image_raw", 5);
+  test_support::TestCamera camera(nh, "camera/image_raw", 5);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("odom", 50);
   const test_support::SyntheticWall wall;
   const sensor_msgs::CameraInfo info_template = test_support::syntheticCameraInfo();

@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <geometry_msgs/TransformStamped.h>
-#include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
@@ -52,8 +51,7 @@ TEST(TeachNode, RecordsKeyframesAndPlanes) {
   tf2_ros::StaticTransformBroadcaster static_tf;
   static_tf.sendTransform(test_support::levelCameraMount(0.2));
 
-  image_transport::ImageTransport it(nh);
-  image_transport::CameraPublisher camera_publisher = it.advertiseCamera("camera/image_raw", 5);
+  test_support::TestCamera camera_publisher(nh, "camera/image_raw", 5);
   ros::Publisher odom_publisher = nh.advertise<nav_msgs::Odometry>("odom", 50);
   TeachStatus last_status;
   bool have_status = false;
