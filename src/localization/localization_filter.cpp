@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -238,20 +239,22 @@ Status LocalizationFilter::correctWithMu(const MuObservation& observation, const
   const std::optional<PreviousMu> previous = previous_mu_;
   previous_mu_ = PreviousMu{observation.reference_id, observation.mu, odom_pose};
   const Pose2D back = odom_pose.inverse().compose(previous ? previous->odom : odom_pose);
-  if (!previous || previous->reference_id != observation.reference_id ||
-      std::hypot(back.x, back.y) > options_.max_confirmation_distance) {
-    return Status(StatusCode::kNoConsensus, "localization filter: mu fix waits for the next frame's confirmation");
-  }
-  const auto predicted_previous = muAt(observation, estimate_.compose(back));
-  if (!predicted_previous) return predicted_previous.status();
-  const double step_error = (observation.mu - previous->mu) - (*predicted - *predicted_previous);
-  if (std::abs(step_error) > options_.max_mu_step_px) {
-    char message[160];
-    std::snprintf(message, sizeof(message),
-                  "localization filter: mu changed %.1f px more than odometry predicts since the previous "
-                  "frame (max_mu_step_px %.1f): a wrong line association in one of them",
-                  step_error, options_.max_mu_step_px);
-    return Status(StatusCode::kNoConsensus, message);
+  if (observation.needs_confirmation) {
+    if (!previous || previous->reference_id != observation.reference_id ||
+        std::hypot(back.x, back.y) > options_.max_confirmation_distance) {
+      return Status(StatusCode::kNoConsensus, "localization filter: mu fix waits for the next frame's confirmation");
+    }
+    const auto predicted_previous = muAt(observation, estimate_.compose(back));
+    if (!predicted_previous) return predicted_previous.status();
+    const double step_error = (observation.mu - previous->mu) - (*predicted - *predicted_previous);
+    if (std::abs(step_error) > options_.max_mu_step_px) {
+      char message[160];
+      std::snprintf(message, sizeof(message),
+                    "localization filter: mu changed %.1f px more than odometry predicts since the previous "
+                    "frame (max_mu_step_px %.1f): a wrong line association in one of them",
+                    step_error, options_.max_mu_step_px);
+      return Status(StatusCode::kNoConsensus, message);
+    }
   }
   // ∂μ/∂(x, y, yaw) (only for a confirmed fix).
   const auto jacobian = poseJacobian(estimate_, [&](const Pose2D& pose) { return muAt(observation, pose); });
@@ -260,14 +263,14 @@ Status LocalizationFilter::correctWithMu(const MuObservation& observation, const
                 "mu fix");
 }
 
-Status LocalizationFilter::correctHeading(double route_yaw, const Pose2D& odom_pose) {
-  if (!std::isfinite(route_yaw)) {
+Status LocalizationFilter::correctHeading(double route_yaw, const Pose2D& odom_pose, double variance) {
+  if (!std::isfinite(route_yaw) || !std::isfinite(variance)) {
     return Status(StatusCode::kInvalidInput, "localization filter: non-finite heading fix");
   }
   Status predicted_to_fix = predict(odom_pose);
   if (!predicted_to_fix.isOk()) return predicted_to_fix;
   return update(wrapToPi(route_yaw - estimate_.yaw), Eigen::RowVector3d(0.0, 0.0, 1.0),
-                options_.heading_fix_variance, "heading fix");
+                std::max(variance, options_.heading_fix_variance), "heading fix");
 }
 
 Expected<Pose2D> LocalizationFilter::predictedPose(const Pose2D& odom_pose) const {

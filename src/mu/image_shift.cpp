@@ -131,12 +131,14 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
   }
   shift.spread_px = kept > 1 ? std::sqrt(squares / (kept - 1)) : 0.0;
   shift.sigma_px = shift.spread_px / std::sqrt(static_cast<double>(kept));
-  shift.runner_up_support =
-      fullestWindow(best_centred, window, shift.shift_px - window, shift.shift_px + window).count;
+  const Window runner_up = fullestWindow(best_centred, window, shift.shift_px - window, shift.shift_px + window);
+  shift.runner_up_support = runner_up.count;
+  shift.runner_up_shift_px = runner_up.count > 0 ? best_centred[runner_up.first + runner_up.count / 2] : NAN;
   if (focal_px) {
     const double t = std::tan(shift.shift_px / *focal_px);
     const double slope = 1.0 + t * t;  // d(f tan(a/f))/da
     shift.shift_px = *focal_px * t;
+    shift.runner_up_shift_px = *focal_px * std::tan(shift.runner_up_shift_px / *focal_px);
     shift.spread_px *= slope;
     shift.sigma_px *= slope;
   }

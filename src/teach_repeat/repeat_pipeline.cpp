@@ -19,6 +19,10 @@ void RepeatPipelineOptions::validate() const {
     throw std::invalid_argument("follow_odometry_distance must be finite and >= 0");
   }
   if (search_all_after < 0) throw std::invalid_argument("search_all_after must be >= 0");
+  if (!std::isfinite(shift_heading_period) || shift_heading_period < 0.0) {
+    throw std::invalid_argument("shift_heading_period must be finite and >= 0");
+  }
+  shift_heading_options.validate();
   integrity.validate();
 }
 
@@ -92,6 +96,9 @@ RepeatPipeline::RepeatPipeline(Localizers localizers, const RepeatPipelineOption
       integrity_(options.integrity),
       filter_(options.mu_filter) {
   if (options_.odometry_gate) odometry_gate_.emplace(*options_.odometry_gate);
+  if (options_.shift_heading && mode() == RepeatMode::kHybrid) {
+    shift_heading_.emplace(localizer_.route(), localizer_.camera(), options_.shift_heading_options);
+  }
   if (options_.start_keyframe >= 0) {
     localizer_.setTrackedKeyframe(options_.start_keyframe);
     if (line_localizer_) line_localizer_->setTrackedKeyframe(options_.start_keyframe);
@@ -255,6 +262,11 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
       if (corrected.code() == StatusCode::kNoConsensus && estimate) ++statistics_.gated;
       note(estimate && estimate->line_landmark_fix ? "lines" : "mu", corrected);
     }
+  }
+  // 3. The seasonal heading fix, where neither gave one.
+  if (result.fixes.empty() && shift_heading_) {
+    const Status shifted = correctWithShiftHeading(stamp, image, &result);
+    if (!shifted.isOk()) note("shift", shifted);
   }
   if (result.fixes.empty()) {
     // No fix: the filter carries the pose on odometry (within max_unaided_distance).

@@ -132,6 +132,99 @@ Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix) {
   return Status::ok();
 }
 
+Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& image, RepeatFrameResult* result) {
+  if (last_shift_heading_stamp_ && stamp >= *last_shift_heading_stamp_ &&
+      stamp - *last_shift_heading_stamp_ < options_.shift_heading_period) {
+    return Status(StatusCode::kNoConsensus, "the last attempt was less than shift_heading_period ago");
+  }
+  if (!filter_.aligned() && !initialized_) {
+    return Status(StatusCode::kNoConsensus, "no pose to start from yet (the first fix comes from Fast-HD or mu)");
+  }
+  const auto odom = odometry_.poseNear(stamp, kOdometryLag);
+  if (!odom) return Status(StatusCode::kInvalidInput, "needs odometry ('odom') at the image stamp: " + odom.status().message());
+  const Route& route = localizer_.route();
+  const int k = localizer_.trackedKeyframe();
+  const RouteKeyframe& keyframe = route.keyframes[static_cast<std::size_t>(k)];
+  if (filter_.aligned()) {
+    const auto predicted = filter_.predictedPose(*odom);
+    if (!predicted) return predicted.status();
+    const double away = std::abs(wrapToPi(predicted->yaw - keyframe.pose.yaw));
+    if (away > options_.localization.mu_max_reference_angle) {
+      char message[200];
+      std::snprintf(message, sizeof(message),
+                    "keyframe %d faces %.1f deg away from the predicted heading (mu_max_reference_angle %.1f deg)", k,
+                    away * 180.0 / M_PI, options_.localization.mu_max_reference_angle * 180.0 / M_PI);
+      return Status(StatusCode::kNoConsensus, message);
+    }
+  }
+  last_shift_heading_stamp_ = stamp;
+  const auto current = shift_heading_->describe(image);
+  if (!current) return current.status();
+  const auto fix = shift_heading_->measure(k, *current);
+  if (!fix) return fix.status();
+  const double fx = localizer_.camera().fx();
+  // μ is the shift of the principal point: the camera turned by atan(μ/f) from the keyframe's
+  // (docs/math.md §4.5), up to the coupling to a lateral offset that the wall model holds.
+  const double route_yaw = wrapToPi(keyframe.pose.yaw + std::atan(fix->mu / fx));
+  auto wall = muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, fx, k);
+  if (fix->ambiguous) {
+    // Two shifts compete (repeated structure, a near object's parallax): taken only where the
+    // filter's prediction picks the winner, the runner-up at least twice as far from it.
+    std::optional<double> predicted_mu;
+    if (filter_.aligned()) {
+      const auto predicted = filter_.predictedPose(*odom);
+      if (predicted && wall) {
+        const auto H = wallHomography1dAt(*wall, *predicted);
+        if (H && std::abs((*H)(1, 1)) > 1e-12) predicted_mu = (*H)(0, 1) / (*H)(1, 1);
+      } else if (predicted) {
+        predicted_mu = fx * std::tan(wrapToPi(predicted->yaw - keyframe.pose.yaw));
+      }
+    }
+    const double runner_up = fix->shift.runner_up_shift_px;
+    if (!predicted_mu || !(std::abs(fix->mu - *predicted_mu) * 2.0 < std::abs(runner_up - *predicted_mu))) {
+      char message[240];
+      std::snprintf(message, sizeof(message),
+                    "ambiguous against keyframe %d: %.0f px (%d votes) or %.0f px (%d votes), and the prediction "
+                    "does not tell them apart",
+                    k, fix->mu, fix->shift.support, runner_up, fix->shift.runner_up_support);
+      return Status(StatusCode::kNoConsensus, message);
+    }
+  }
+  if (!filter_.aligned()) {
+    // The start keyframe is known (start_keyframe): the filter starts there, as with a first μ fix.
+    Status aligned = filter_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
+    if (!aligned.isOk()) return aligned;
+    integrity_.addFix(stamp, true, std::nullopt, 0, fix->shift.support);
+  } else {
+    Status corrected;
+    if (wall) {
+      wall->mu = fix->mu;
+      wall->variance = fix->variance;
+      wall->needs_confirmation = false;  // the vote's own consensus, not a line association
+      corrected = filter_.correctWithMu(*wall, *odom);
+    } else {
+      corrected = filter_.correctHeading(route_yaw, *odom, fix->variance / (fx * fx));
+    }
+    recordFix(stamp, corrected.isOk(), fix->shift.support);
+    if (!corrected.isOk()) {
+      if (corrected.code() == StatusCode::kNoConsensus) ++statistics_.gated;
+      return corrected;
+    }
+  }
+  ++statistics_.shift_heading_fixes;
+  initialized_ = true;
+  RepeatEstimate estimate;
+  estimate.mode = RepeatMode::kMu;
+  estimate.keyframe = k;
+  estimate.matches = fix->matches;
+  estimate.inliers = fix->shift.support;
+  estimate.mu = fix->mu;
+  estimate.heading_correction = wrapToPi(route_yaw - keyframe.pose.yaw);
+  result->estimate = estimate;
+  result->fixes = "shift";
+  return Status::ok();
+}
+
 Status RepeatPipeline::correctWithLineLandmarks(const Pose2D& odom, RepeatEstimate* fix) {
   // The keyframe the localizer chose, then its neighbours ahead and behind: the filter's own
   // association decides which one's lines are in view.

@@ -174,6 +174,40 @@ TEST(LocalizationFilter, AMuFixMustAgreeWithThePreviousFrame) {
   EXPECT_NEAR(filter.routePose(Pose2D(0.3, 0.0, 0.0))->yaw, 0.0, 1e-3);
 }
 
+// A fix that passed its own consensus (needs_confirmation false: the seasonal shift vote) is taken
+// at once, each frame, while the innovation gate still refuses a wild one; a heading fix with its
+// own variance above heading_fix_variance shrinks the heading less.
+TEST(LocalizationFilter, AFixCheckedByItsOwnConsensusNeedsNoConfirmation) {
+  MuObservation wall;
+  wall.camera_mount = Pose2D(0.2, 0.0, 0.0);
+  wall.wall_distance = 3.0;
+  wall.reference_id = 7;
+  wall.needs_confirmation = false;
+  const CameraMount mount(0.2, 0.0, 0.0);
+  LocalizationFilter filter;
+  ASSERT_TRUE(filter.align(Pose2D(), Pose2D()).isOk());
+  std::vector<StatusCode> codes;
+  for (int i = 1; i <= 4; ++i) {
+    const Pose2D pose(0.5 * i, 0.0, 0.0);  // fixes 0.5 m apart: beyond max_confirmation_distance
+    wall.mu = *predictedMu(mount.baseToCamera(pose), wall.wall_normal, wall.wall_distance, wall.focal_px);
+    wall.reference_id = i;  // and against other keyframes
+    if (i == 3) wall.mu += 200.0;
+    codes.push_back(filter.correctWithMu(wall, pose).code());
+  }
+  EXPECT_EQ(codes, (std::vector<StatusCode>{StatusCode::kOk, StatusCode::kOk, StatusCode::kNoConsensus, StatusCode::kOk}));
+
+  LocalizationFilterOptions options;
+  LocalizationFilter tight(options), loose(options);
+  for (LocalizationFilter* f : {&tight, &loose}) {
+    ASSERT_TRUE(f->align(Pose2D(), Pose2D()).isOk());
+    ASSERT_TRUE(f->routePose(Pose2D(2.0, 0.0, 0.0)).isOk());
+  }
+  ASSERT_TRUE(tight.correctHeading(0.0, Pose2D(2.0, 0.0, 0.0)).isOk());
+  ASSERT_TRUE(loose.correctHeading(0.0, Pose2D(2.0, 0.0, 0.0), 100.0 * options.heading_fix_variance).isOk());
+  EXPECT_GT(loose.covariance()(2, 2), 5.0 * tight.covariance()(2, 2));
+  EXPECT_EQ(tight.correctHeading(0.0, Pose2D(2.0, 0.0, 0.0), std::nan("")).code(), StatusCode::kInvalidInput);
+}
+
 TEST(LocalizationFilter, TheGateRefusesAWildFixAndALastingDisagreementResetsIt) {
   LocalizationFilterOptions options;
   options.refused_before_reset = 3;

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "homography_teach_repeat/mu/image_shift.h"
@@ -54,6 +55,7 @@ TEST(ImageShift, TwoCompetingShiftsShowInTheRunnerUp) {
   ASSERT_TRUE(shift.isOk());
   EXPECT_NEAR(shift->shift_px, 20.0, 1.0);
   EXPECT_EQ(shift->runner_up_support, 25);
+  EXPECT_NEAR(shift->runner_up_shift_px, -100.0, 2.0);
 }
 
 TEST(ImageShift, TheWindowScalesWithTheImage) {
@@ -73,6 +75,7 @@ TEST(ImageShift, TheWindowScalesWithTheImage) {
   EXPECT_NEAR(full->shift_px, 10.0, 0.5);
   EXPECT_EQ(full->support, 20);
   EXPECT_EQ(full->runner_up_support, 0);
+  EXPECT_TRUE(std::isnan(full->runner_up_shift_px));
 }
 
 TEST(ImageShift, MatchesThatMoveVerticallyAreDropped) {

@@ -130,8 +130,9 @@ class LocalizationFilter {
   // innovation gate, kDegenerate when the wall is not in front of both cameras.
   Status correctWithMu(const MuObservation& observation, const Pose2D& odom_pose);
   // A heading-only fix: the robot's yaw in the route frame was `route_yaw` when its odometry
-  // read `odom_pose`. Same statuses (the gate applies).
-  Status correctHeading(double route_yaw, const Pose2D& odom_pose);
+  // read `odom_pose`, with variance `variance` [rad²] (at least heading_fix_variance). Same
+  // statuses (the gate applies).
+  Status correctHeading(double route_yaw, const Pose2D& odom_pose, double variance = 0.0);
   // A fix from the current lines against the reference's line landmarks (docs/math.md §4.9): each
   // landmark is projected at the predicted pose and paired with the current lines of its
   // appearance within innovation_gate of its predicted x; the heading change most pairs agree on

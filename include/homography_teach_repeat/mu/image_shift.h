@@ -8,6 +8,7 @@
 // seasons (docs/evaluation.md, "Heading across seasons").
 #pragma once
 
+#include <cmath>
 #include <optional>
 
 #include "homography_teach_repeat/common/status.h"
@@ -44,6 +45,7 @@ struct ImageShift {
   // The most matches in a window whose centre is more than a window width from the winner's: a
   // value near `support` means two shifts compete (repeated structure, parallax of a near object).
   int runner_up_support = 0;
+  double runner_up_shift_px = NAN;  // the median shift of that window (NaN: no runner-up)
   int matches = 0;         // matches within the vertical limit
 };
 

@@ -24,6 +24,10 @@ struct MuObservation {
   Pose2D camera_mount;           // camera forward frame in base_link (x, y, yaw)
   double focal_px = 500.0;       // the μ focal length [px]
   int reference_id = -1;         // the keyframe (confirmation compares fixes of the same one)
+  // false: the measurement passed its own consensus check (ShiftHeading's unambiguous vote,
+  // mu/shift_heading.h) and is taken without the previous frame's confirmation
+  // (LocalizationFilterOptions::max_mu_step_px); the innovation gate still applies.
+  bool needs_confirmation = true;
 };
 
 // The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its

@@ -1,5 +1,6 @@
 // When the teach node stores a keyframe: after the robot has moved `distance` metres or turned
 // `angle` radians since the last keyframe (by odometry), and always for the first image.
+// (Defined in teach_session.cpp, its one user.)
 #pragma once
 
 #include <optional>

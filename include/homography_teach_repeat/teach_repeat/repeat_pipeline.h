@@ -13,7 +13,8 @@
 //    Fast-HD pose with its covariance where the keyframe has a plane and the pose passes its
 //    checks and the odometry gate (§7.1), the μ fix (or line landmark fix) where it has vertical
 //    lines, both where both exist, the odometry alone in between (within max_unaided_distance).
-//    The published pose and covariance are the filter's. A route without planes runs on μ, one
+//    Where none of these is available, the seasonal heading fix (ShiftHeading against the nearest
+//    keyframe's image, shift_heading). The published pose and covariance are the filter's. A route without planes runs on μ, one
 //    without lines on Fast-HD (hybridNotes() says what is missing).
 //  - every mode: frames without a fix let the search follow the odometry along the route and,
 //    after search_all_after of them, try every keyframe; the integrity monitor
@@ -35,6 +36,7 @@
 #include "homography_teach_repeat/localization/integrity_monitor.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/localization/odometry_gate.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -67,6 +69,17 @@ struct RepeatPipelineOptions {
   //    passes the odometry gate, and a failed search leaves the tracked keyframe as it was.
   double follow_odometry_distance = 5.0;
   int search_all_after = 10;
+  // hybrid: the seasonal heading fix (teach_repeat/keyframe_shift_heading.h, docs/math.md §4.10)
+  // in a frame without a Fast-HD pose, μ or line fix: the current image against the stored image
+  // of the keyframe the filter's prediction is at, when that keyframe faces within
+  // localization.mu_max_reference_angle of the predicted heading. Its μ goes through the
+  // keyframe's wall model (a heading-only fix without one); an ambiguous vote only where the
+  // filter's prediction is at most half as far from the winning shift as from the runner-up. At
+  // most one attempt every `shift_heading_period` seconds [>= 0]: one costs about 100-150 ms at
+  // 640x480 on 2 cores (bench_shift_heading), and the odometry carries the heading in between.
+  bool shift_heading = true;
+  double shift_heading_period = 1.0;
+  KeyframeShiftHeadingOptions shift_heading_options;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -81,7 +94,7 @@ struct RepeatFrameResult {
   std::string warning;                        // something a user should read (logged throttled)
   std::optional<LocalizeTiming> timing;       // of the localizer, when the frame reached it
   // The filter modes (mu, hybrid): what corrected it in this frame ("fast_hd", "mu", "lines",
-  // "fast_hd+mu", ...; empty: odometry alone).
+  // "fast_hd+mu", "shift", ...; empty: odometry alone).
   std::string fixes;
   IntegrityReport integrity;                  // the verdict on `pose`
 };
@@ -91,6 +104,7 @@ struct RepeatStatistics {
   unsigned frames = 0, failures = 0, degraded = 0, gated = 0;
   unsigned failures_in_a_row = 0;
   unsigned searches_all = 0, found_by_search_all = 0;  // whole-route searches, and those that gave a pose
+  unsigned shift_heading_fixes = 0;  // hybrid: seasonal heading fixes taken
   int last_inliers = 0;
   int last_keyframe = -1;
   bool last_degraded = false;
@@ -151,6 +165,9 @@ class RepeatPipeline {
   // mu: the filter at `stamp` corrected by the estimate's μ.
   // (`fix`: its keyframe and inliers become those of the line landmark fix taken.)
   Status correctMuFilter(double stamp, RepeatEstimate* fix);
+  // hybrid, a frame without another fix: the seasonal heading fix into the filter (the reason
+  // when none was taken).
+  Status correctWithShiftHeading(double stamp, const cv::Mat& image, RepeatFrameResult* result);
   // mu, a keyframe with line landmarks: the filter's fix from the current lines.
   Status correctWithLineLandmarks(const Pose2D& odom, RepeatEstimate* fix);
   // mu/hybrid, a frame without a fix: the filter alone, within max_unaided_distance.
@@ -178,6 +195,8 @@ class RepeatPipeline {
   // fast_hd/classic: the last accepted pose's map -> odom, and the odometry then.
   std::optional<Pose2D> last_alignment_;
   std::optional<Pose2D> last_fix_odometry_;
+  std::optional<KeyframeShiftHeading> shift_heading_;  // hybrid with shift_heading
+  std::optional<double> last_shift_heading_stamp_;    // the last attempt's
   RepeatStatistics statistics_;
 };
 

@@ -30,6 +30,7 @@
 #include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
 #include "homography_teach_repeat/mu/shift_heading.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 
 using namespace homography_teach_repeat;
 namespace fs = std::filesystem;
@@ -42,13 +43,17 @@ double msSince(Clock::time_point start) {
 }
 
 // What a method measures the shift with.
-enum class Estimator { kHomography, kVote, kLines };
+// kChain: the repeat's order (hybrid mode) as far as two images show it: the registration where it
+// has at least RepeatOptions::min_inliers inliers (the repeat would then try its Fast-HD pose), the
+// seasonal shift vote otherwise (mu/shift_heading.h).
+enum class Estimator { kHomography, kVote, kLines, kChain };
 
 struct Method {
   std::string name;
   std::string description;
   Estimator estimator = Estimator::kVote;
   std::vector<FeatureOptions> features;  // kVote: the matches of every set vote together (ShiftHeading)
+  std::vector<FeatureOptions> vote_features;  // kChain: its vote's (features: its registration's)
 };
 
 std::vector<Method> allMethods(int max_features) {
@@ -65,18 +70,22 @@ std::vector<Method> allMethods(int max_features) {
   const std::string vote = ", mutual nearest, shift vote";
   return {
       {"homography", "SIFT, ratio 0.8 + mutual, robust homography (the fast_hd chain): the shift of the image centre",
-       Estimator::kHomography, {sift}},
-      {"sift_vote", "SIFT" + vote, Estimator::kVote, {sift}},
-      {"upright_sift_vote", "upright SIFT" + vote, Estimator::kVote, {upright_sift}},
-      {"akaze_vote", "AKAZE" + vote, Estimator::kVote, {akaze}},
-      {"upright_akaze_vote", "upright AKAZE" + vote, Estimator::kVote, {upright_akaze}},
-      {"upright_orb_vote", "upright ORB" + vote, Estimator::kVote, {upright_orb}},
-      {"brief_vote", "BRIEF on AGAST corners" + vote, Estimator::kVote, {brief}},
+       Estimator::kHomography, {sift}, {}},
+      {"sift_vote", "SIFT" + vote, Estimator::kVote, {sift}, {}},
+      {"upright_sift_vote", "upright SIFT" + vote, Estimator::kVote, {upright_sift}, {}},
+      {"akaze_vote", "AKAZE" + vote, Estimator::kVote, {akaze}, {}},
+      {"upright_akaze_vote", "upright AKAZE" + vote, Estimator::kVote, {upright_akaze}, {}},
+      {"upright_orb_vote", "upright ORB" + vote, Estimator::kVote, {upright_orb}, {}},
+      {"brief_vote", "BRIEF on AGAST corners" + vote, Estimator::kVote, {brief}, {}},
       {"shift_heading", "the repeat's seasonal heading fix (mu/shift_heading.h): upright AKAZE and BRIEF, each mutual nearest, one shift vote",
-       Estimator::kVote, ShiftHeadingOptions::defaultFeatures()},
+       Estimator::kVote, ShiftHeadingOptions::defaultFeatures(), {}},
       {"upright_akaze_sift_brief_vote", "upright AKAZE, upright SIFT and BRIEF, each mutual nearest, one shift vote",
-       Estimator::kVote, {upright_akaze, upright_sift, brief}},
-      {"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, {}},
+       Estimator::kVote, {upright_akaze, upright_sift, brief}, {}},
+      {"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, {}, {}},
+      {"repeat_chain",
+       "the repeat's order (hybrid): the homography where it has >= min_inliers (" +
+           std::to_string(RepeatOptions().min_inliers) + ") inliers, the shift_heading vote otherwise",
+       Estimator::kChain, {sift}, ShiftHeadingOptions::defaultFeatures()},
   };
 }
 
@@ -114,11 +123,12 @@ struct Extracted {
 // A method's extractor, made once for all its images.
 struct Extractors {
   explicit Extractors(const Method& method) {
-    if (method.estimator == Estimator::kVote) {
+    if (method.estimator == Estimator::kVote || method.estimator == Estimator::kChain) {
       ShiftHeadingOptions options;
-      options.features = method.features;
+      options.features = method.estimator == Estimator::kChain ? method.vote_features : method.features;
       heading.emplace(options);
-    } else if (method.estimator == Estimator::kHomography) {
+    }
+    if (method.estimator == Estimator::kHomography || method.estimator == Estimator::kChain) {
       points.emplace(method.features.front());
     }
   }
@@ -133,10 +143,12 @@ Extracted extract(const Method& method, Extractors& extractors, const cv::Mat& i
   if (method.estimator == Estimator::kLines) {
     auto lines = extractors.lines.extract(image);
     if (lines) e.lines = std::move(*lines); else e.problem = lines.status().toString();
-  } else if (method.estimator == Estimator::kVote) {
+  }
+  if (extractors.heading && e.problem.empty()) {
     auto shift = extractors.heading->describe(image);
     if (shift) e.shift = std::move(*shift); else e.problem = shift.status().toString();
-  } else {
+  }
+  if (extractors.points && e.problem.empty()) {
     auto features = extractors.points->extract(image);
     if (features) e.features.push_back(std::move(*features)); else e.problem = features.status().toString();
   }
@@ -162,28 +174,36 @@ Outcome measure(const Method& method, const ShiftHeading* heading, const Extract
     } else {
       outcome.status = correction.status().toString();
     }
-  } else if (method.estimator == Estimator::kHomography) {
+    outcome.time_ms = msSince(start);
+    return outcome;
+  }
+  if (method.estimator == Estimator::kHomography || method.estimator == Estimator::kChain) {
     const auto registration = registerFeatures(reference.features[0], current.features[0], MatchOptions(),
                                                RobustHomographyOptions(), nullptr);
-    if (registration) {
+    const int inliers = registration ? static_cast<int>(registration->homography.inliers.size()) : 0;
+    if (registration && (method.estimator == Estimator::kHomography || inliers >= RepeatOptions().min_inliers)) {
       const Eigen::Vector3d centre(0.5 * (size.width - 1), 0.5 * (size.height - 1), 1.0);
       const Eigen::Vector3d mapped = registration->homography.H * centre;
       if (std::abs(mapped.z()) > 1e-12) outcome.estimate_px = mapped.x() / mapped.z() - centre.x();
       else outcome.status = "the homography maps the image centre to infinity";
-    } else {
+      outcome.time_ms = msSince(start);
+      return outcome;
+    }
+    if (method.estimator == Estimator::kHomography) {
       outcome.status = registration.status().toString();
+      outcome.time_ms = msSince(start);
+      return outcome;
     }
+  }
+  // The benchmark's images have no calibration: the shift at the image's middle.
+  const auto fix = heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
+  if (fix) {
+    outcome.estimate_px = fix->mu;
+    outcome.support = fix->shift.support;
+    outcome.runner_up_support = fix->shift.runner_up_support;
+    outcome.ambiguous = fix->ambiguous;
   } else {
-    // The benchmark's images have no calibration: the shift at the image's middle.
-    const auto fix = heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
-    if (fix) {
-      outcome.estimate_px = fix->mu;
-      outcome.support = fix->shift.support;
-      outcome.runner_up_support = fix->shift.runner_up_support;
-      outcome.ambiguous = fix->ambiguous;
-    } else {
-      outcome.status = fix.status().toString();
-    }
+    outcome.status = fix.status().toString();
   }
   outcome.time_ms = msSince(start);
   return outcome;
@@ -208,7 +228,8 @@ int main(int argc, char** argv) {
                       "  [--tolerance PX] (35: the benchmark's) [--plots 0|1]\n"
                       "  methods: homography, sift_vote, upright_sift_vote, akaze_vote, upright_akaze_vote,\n"
                       "  upright_orb_vote, brief_vote, shift_heading (the repeat's seasonal fix: upright AKAZE + BRIEF),\n"
-                      "  upright_akaze_sift_brief_vote, mu_lines");
+                      "  upright_akaze_sift_brief_vote, mu_lines, repeat_chain (the repeat's order: the homography\n"
+                      "  where it has min_inliers, the shift_heading vote otherwise)");
   args.parse(argc, argv);
   if (args.text("data").empty() || args.text("out").empty()) args.fail("--data and --out are required");
   const int max_features = args.integer("max-features");
@@ -248,8 +269,8 @@ int main(int argc, char** argv) {
   doc["tolerance_px"] = tolerance;
   doc["max_features"] = max_features;
   // The heading measurement the repeat uses by default (config/repeat_node.yaml, mode hybrid): the
-  // plane pose's rotation from the robust homography of SIFT matches.
-  doc["default_method"] = "homography";
+  // plane pose from the registration where it holds, the seasonal shift vote where it does not.
+  doc["default_method"] = "repeat_chain";
   fs::path site = fs::path(args.text("data")).lexically_normal();
   if (site.filename().empty()) site = site.parent_path();  // "michigan/"
   doc["published_error_rates"] = publishedRates(site.filename().string());
@@ -314,7 +335,7 @@ int main(int argc, char** argv) {
                               {"median_abs_error_px", errors.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(median(errors))},
                               {"extract_ms_per_image", extract_ms_per_image},
                               {"time_per_pair_ms", 2.0 * extract_ms_per_image + pair_ms / n}};
-    if (method.estimator == Estimator::kVote) {
+    if (method.estimator == Estimator::kVote || method.estimator == Estimator::kChain) {
       // Estimates flagged ambiguous (ShiftHeadingOptions::ambiguity_ratio) that were right / wrong,
       // and wrong estimates that were not flagged (the ones a repeat would take unquestioned).
       summary["ambiguous_right"] = ambiguous_right;

@@ -53,6 +53,7 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("poses refused by the odometry gate", s.gated);
   stat.add("failed frames in a row", s.failures_in_a_row);
   stat.addf("whole-route searches (found a pose)", "%u (%u)", s.searches_all, s.found_by_search_all);
+  stat.addf("seasonal heading fixes", "%u", s.shift_heading_fixes);
   // Median and maximum over the last frames (the latency an image sees is its age + processing).
   using Figure = std::optional<double>;
   stat.add("processing time median / max [ms]", timing_.medianAndMax([](const FrameTiming& t) { return Figure(t.processing_ms); }));

@@ -70,6 +70,9 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     o.search_all_after = readParameter(nh, "search_all_after", o.search_all_after);
     o.hybrid_fuse_both = readParameter(nh, "hybrid_fuse_both", o.hybrid_fuse_both);
     o.hybrid_skip_turn_keyframes = readParameter(nh, "hybrid_skip_turn_keyframes", o.hybrid_skip_turn_keyframes);
+    o.shift_heading = readParameter(nh, "shift_heading", o.shift_heading);
+    o.shift_heading_period = readParameter(nh, "shift_heading_period", o.shift_heading_period);
+    o.shift_heading_options.cache_size = readParameter(nh, "shift_heading_cache_size", o.shift_heading_options.cache_size);
     IntegrityOptions& i = o.integrity;
     i.degraded_position_bound = readParameter(nh, "integrity_degraded_position_bound", i.degraded_position_bound);
     i.lost_position_bound = readParameter(nh, "integrity_lost_position_bound", i.lost_position_bound);

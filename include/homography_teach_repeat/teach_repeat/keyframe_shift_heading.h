@@ -1,0 +1,59 @@
+// The repeat's seasonal heading fix (docs/math.md §4.10, docs/evaluation.md "Heading across
+// seasons"): ShiftHeading (mu/shift_heading.h) of the current image against a route keyframe's
+// stored image. The mu and hybrid modes take it where a frame has neither a Fast-HD pose nor a μ or
+// line fix (RepeatPipeline, docs/nodes/repeat_node.md, "The seasonal heading fix").
+//  - The keyframe's image (keyframes/NNNNNN.png, as recorded) is read and described on first use;
+//    the features of the `cache_size` most recently used keyframes are kept.
+//  - Keypoints are undistorted with the route's calibration before the vote, which runs on angles
+//    (the camera's fx), so μ is that of the ideal pinhole camera at the principal point cx.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <list>
+#include <utility>
+
+#include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/mu/shift_heading.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
+
+namespace homography_teach_repeat {
+
+struct KeyframeShiftHeadingOptions {
+  ShiftHeadingOptions shift;
+  int cache_size = 32;  // keyframes whose features are kept (>= 1; about 0.25 MB each at the defaults)
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+class KeyframeShiftHeading {
+ public:
+  // `route`: its directory and keyframe image files (read later, on use); `camera`: the route's.
+  // Throws std::invalid_argument on invalid options.
+  KeyframeShiftHeading(const Route& route, const PinholeCamera& camera,
+                       const KeyframeShiftHeadingOptions& options = KeyframeShiftHeadingOptions());
+
+  // The features of a current image (grey or colour, 8-bit), undistorted. Status: kInvalidInput for
+  // an image of another size than the route's camera, or the extractor's.
+  Expected<ShiftFeatures> describe(const cv::Mat& image);
+  // μ [px] of the current view against keyframe `keyframe` with its variance and ambiguity.
+  // Status: kInvalidInput for a keyframe out of range or an unreadable keyframe image (naming the
+  // file; retried on the next call), otherwise ShiftHeading::measure's.
+  Expected<ShiftHeadingFix> measure(int keyframe, const ShiftFeatures& current);
+
+  int keyframeCount() const { return static_cast<int>(route_.keyframes.size()); }
+  int cachedKeyframes() const { return static_cast<int>(cache_.size()); }
+
+ private:
+  Expected<const ShiftFeatures*> keyframeFeatures(int keyframe);
+  void undistort(ShiftFeatures* features) const;
+
+  Route route_;  // the keyframes' image files
+  PinholeCamera camera_;
+  KeyframeShiftHeadingOptions options_;
+  ShiftHeading shift_heading_;
+  std::list<std::pair<int, ShiftFeatures>> cache_;  // most recently used first
+};
+
+}  // namespace homography_teach_repeat

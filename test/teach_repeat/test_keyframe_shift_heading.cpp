@@ -1,0 +1,154 @@
+// The seasonal heading fix of the repeat: KeyframeShiftHeading against a route's stored keyframe
+// images, and RepeatPipeline (hybrid) taking it where a frame has no Fast-HD pose and no μ fix.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
+#include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
+#include "support/synthetic_route_test.h"
+
+using namespace homography_teach_repeat;
+
+namespace {
+
+constexpr double kDegree = M_PI / 180.0;
+
+class KeyframeShiftHeadingTest : public test_support::SyntheticRouteTest {
+ protected:
+  static PinholeCamera camera() { return PinholeCamera(test_support::syntheticCalibration()); }
+  // The camera on the taught path at arc length s [m], `lateral` [m] to its right, turned `turn`
+  // [rad] from the path's heading (camera axes, docs/math.md §1.1).
+  static PlanarPose pathCamera(double s, double turn = 0.0) { return PlanarPose(0.08 * s, s, 0.04 * s + turn); }
+
+  // Hybrid with Fast-HD and μ unable to give a fix (their consensus thresholds out of reach): the
+  // seasonal heading fix is all there is, as on a route revisited in another season.
+  static RepeatPipelineOptions onlyShiftHeading() {
+    RepeatPipelineOptions options;
+    options.localization.mode = RepeatMode::kHybrid;
+    options.localization.min_inliers = 100000;
+    options.localization.heading.min_inliers = 100000;
+    options.shift_heading_period = 0.0;
+    return options;
+  }
+
+  // 14 frames 0.1 m apart along the taught path, the odometry's heading drifting 0.003 rad per
+  // frame; returns the last frame's heading errors [rad] of the odometry and of the pose, and
+  // counts the frames whose fixes were `fix`.
+  struct Drive {
+    double odometry_error = 0.0, pose_error = 0.0;
+    int fixes = 0, poses = 0;
+  };
+  static Drive driveWithBiasedOdometry(RepeatPipeline& pipeline, const std::string& fix) {
+    Drive drive;
+    Pose2D odom = cameraAxesToRep103(pathCamera(0.0));
+    Pose2D previous_truth = odom;
+    for (int step = 0; step < 14; ++step) {
+      const double stamp = 300.0 + 0.1 * step;
+      const PlanarPose camera_pose = pathCamera(0.1 * step);
+      const Pose2D truth = cameraAxesToRep103(camera_pose);
+      Pose2D increment = previous_truth.inverse().compose(truth);
+      if (step > 0) increment.yaw += 0.003;
+      odom = odom.compose(increment);
+      previous_truth = truth;
+      EXPECT_TRUE(pipeline.addOdometry(stamp, odom).isOk());
+      const RepeatFrameResult result = pipeline.processFrame(stamp, wall_->imageAt(camera_pose), camera());
+      if (result.fixes == fix) ++drive.fixes;
+      if (!result.pose) continue;
+      ++drive.poses;
+      drive.odometry_error = std::abs(wrapToPi(odom.yaw - truth.yaw));
+      drive.pose_error = std::abs(wrapToPi(result.pose->yaw - truth.yaw));
+      EXPECT_LT(std::hypot(result.pose->x - truth.x, result.pose->y - truth.y), 0.05) << step;
+    }
+    return drive;
+  }
+};
+
+}  // namespace
+
+// μ against a keyframe's stored image reads the camera's turn: atan(μ/f) is the yaw of the current
+// camera relative to the keyframe's (REP-103, counter-clockwise positive), within 0.1°.
+TEST_F(KeyframeShiftHeadingTest, MeasuresTheTurnFromTheKeyframe) {
+  const Route r = route();
+  KeyframeShiftHeading shift(r, camera());
+  for (const double turn : {-3.0 * kDegree, 2.0 * kDegree}) {
+    const auto current = shift.describe(wall_->imageAt(pathCamera(0.0, turn)));
+    ASSERT_TRUE(current.isOk()) << current.status().toString();
+    const auto fix = shift.measure(0, *current);
+    ASSERT_TRUE(fix.isOk()) << fix.status().toString();
+    const double relative_yaw =
+        wrapToPi(cameraAxesToRep103(pathCamera(0.0, turn)).yaw - cameraAxesToRep103(pathCamera(0.0)).yaw);
+    EXPECT_NEAR(std::atan(fix->mu / camera().fx()), relative_yaw, 0.1 * kDegree) << turn;
+    EXPECT_FALSE(fix->ambiguous);
+    EXPECT_GT(fix->variance, 0.0);
+  }
+  EXPECT_EQ(shift.cachedKeyframes(), 1);  // the keyframe described once
+}
+
+// The cache keeps the most recently used keyframes; a keyframe out of range, an image of another
+// size and an unreadable keyframe image are errors naming what is wrong (the image is read again on
+// the next call).
+TEST_F(KeyframeShiftHeadingTest, CacheAndBadInput) {
+  KeyframeShiftHeadingOptions options;
+  options.cache_size = 2;
+  const std::string copy = test_support::makeTemporaryDirectory("htr_shift_route");
+  std::filesystem::copy(directory_, copy, std::filesystem::copy_options::recursive);
+  auto r = loadRoute(copy);
+  ASSERT_TRUE(r.isOk()) << r.status().toString();
+  KeyframeShiftHeading shift(*r, camera(), options);
+  const auto current = shift.describe(wall_->imageAt(pathCamera(0.25)));
+  ASSERT_TRUE(current.isOk());
+  for (const int k : {0, 1, 2}) EXPECT_TRUE(shift.measure(k, *current).isOk()) << k;
+  EXPECT_EQ(shift.cachedKeyframes(), 2);
+
+  EXPECT_EQ(shift.measure(99, *current).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(shift.describe(cv::Mat(240, 320, CV_8UC1, cv::Scalar(0))).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(shift.describe(cv::Mat()).status().code(), StatusCode::kInvalidInput);
+
+  const std::string image = copy + "/" + r->keyframes[3].image_file;
+  std::filesystem::resize_file(image, 100);  // a copy cut short
+  const auto broken = shift.measure(3, *current);
+  ASSERT_FALSE(broken.isOk());
+  EXPECT_EQ(broken.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(broken.status().message().find(r->keyframes[3].image_file), std::string::npos) << broken.status().message();
+  std::filesystem::remove_all(copy);
+}
+
+// hybrid where neither Fast-HD nor μ gives a fix: the seasonal heading fixes start the filter at
+// the start keyframe and hold the heading that the odometry loses (0.003 rad per 0.1 m); without
+// them there is no pose at all (nothing aligns the filter).
+TEST_F(KeyframeShiftHeadingTest, HybridTakesTheShiftHeadingWhereNothingElseFixes) {
+  auto with = RepeatPipeline::create(route(), onlyShiftHeading());
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  const Drive fixed = driveWithBiasedOdometry(*with, "shift");
+  EXPECT_GE(fixed.fixes, 12);
+  EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
+  EXPECT_EQ(fixed.poses, 14);
+  EXPECT_GT(fixed.odometry_error, 0.035);
+  EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
+
+  RepeatPipelineOptions off = onlyShiftHeading();
+  off.shift_heading = false;
+  auto without = RepeatPipeline::create(route(), off);
+  ASSERT_TRUE(without.isOk());
+  const Drive blind = driveWithBiasedOdometry(*without, "shift");
+  EXPECT_EQ(blind.fixes, 0);
+  EXPECT_EQ(blind.poses, 0);
+}
+
+// At most one attempt per shift_heading_period: the frames in between carry the pose on odometry
+// and say why there was no fix.
+TEST_F(KeyframeShiftHeadingTest, OneAttemptPerPeriod) {
+  RepeatPipelineOptions options = onlyShiftHeading();
+  options.shift_heading_period = 0.35;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk());
+  const Drive drive = driveWithBiasedOdometry(*pipeline, "shift");
+  EXPECT_EQ(drive.poses, 14);
+  EXPECT_GE(drive.fixes, 3);  // frames 0, 4, 8, 12 at 0.1 s apart
+  EXPECT_LE(drive.fixes, 4);
+
+  options.shift_heading_period = -1.0;
+  EXPECT_EQ(RepeatPipeline::create(route(), options).status().code(), StatusCode::kInvalidInput);
+}
