@@ -4,19 +4,26 @@
 //   rosrun homography_teach_repeat bench_repeat_localizer [--benchmark_format=json]
 // Counters: pos_err_mm / yaw_err_mdeg of the benchmarked frame against its ground truth.
 // BM_RepeatLocalize detects features in every frame; BM_RepeatLocalizeTracked is a frame that
-// follows a detected one by optical flow (RepeatOptions::max_tracked_frames).
+// follows a detected one by optical flow (RepeatOptions::max_tracked_frames). BM_RepeatFrames is
+// the whole frame of the default mode (RepeatPipeline, hybrid: Fast-HD with tracking, μ, the filter,
+// the seasonal heading fix where nothing else fixes) over a drive of 40 frames at 30 Hz: counters
+// median_ms, p95_ms and max_ms of the frames.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include "support/synthetic_route.h"
 #include <opencv2/features2d.hpp>
 
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/teach_repeat/repeat_localizer.h"
+#include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
 
 namespace htr = homography_teach_repeat;
 
@@ -131,6 +138,69 @@ BENCHMARK_CAPTURE(BM_RepeatLocalizeTracked, FastHD_SIFT, htr::FeatureType::kSift
     ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
 BENCHMARK_CAPTURE(BM_RepeatLocalizeTracked, FastHD_ORB, htr::FeatureType::kOrb)
     ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+
+// The default mode's whole frame (RepeatPipeline, hybrid, the node's defaults where they differ
+// from the options' own: max_tracked_frames 2, SIFT routes) over 40 frames 2.5 cm apart at 30 Hz
+// (0.75 m/s), 4 cm beside the taught path with exact odometry; each benchmark iteration is one
+// frame, timed on its own. `seasonal`: the taught views match nothing any more (Fast-HD's and μ's
+// consensus thresholds out of reach), so the frame runs Fast-HD detection and μ without a fix, and
+// the seasonal heading fix once per shift_heading_period.
+void BM_RepeatFrames(benchmark::State& state, bool seasonal) {
+  const auto route = htr::loadRoute(fixture().route(htr::FeatureType::kSift));
+  if (!route) {
+    state.SkipWithError(route.status().toString().c_str());
+    return;
+  }
+  htr::RepeatPipelineOptions options;
+  options.localization.mode = htr::RepeatMode::kHybrid;
+  if (seasonal) {
+    options.localization.min_inliers = 100000;
+    options.localization.heading.min_inliers = 100000;
+  }
+  auto pipeline = htr::RepeatPipeline::create(*route, options);
+  if (!pipeline) {
+    state.SkipWithError(pipeline.status().toString().c_str());
+    return;
+  }
+  constexpr int kFrames = 40;
+  std::vector<cv::Mat> images;
+  std::vector<htr::Pose2D> odometry;
+  for (int i = 0; i < kFrames; ++i) {
+    const double s = 0.1 + 0.025 * i;
+    const htr::PlanarPose camera_pose(0.08 * s + 0.04, s, 0.04 * s);
+    images.push_back(fixture().wall.imageAt(camera_pose));
+    odometry.push_back(htr::cameraAxesToRep103(camera_pose));
+  }
+  const htr::PinholeCamera camera(htr::test_support::syntheticCalibration());
+  std::vector<double> frame_ms;
+  int frame = 0, poses = 0, shift_fixes = 0;
+  for (auto _ : state) {
+    const double stamp = 100.0 + frame / 30.0;
+    if (!pipeline->addOdometry(stamp, odometry[static_cast<std::size_t>(frame)]).isOk()) {
+      state.SkipWithError("odometry refused");
+      return;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const htr::RepeatFrameResult result = pipeline->processFrame(stamp, images[static_cast<std::size_t>(frame)], camera);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    state.SetIterationTime(seconds);
+    frame_ms.push_back(1000.0 * seconds);
+    poses += result.pose ? 1 : 0;
+    shift_fixes += result.fixes == "shift" ? 1 : 0;
+    ++frame;
+  }
+  std::sort(frame_ms.begin(), frame_ms.end());
+  const auto at = [&](double q) { return frame_ms[static_cast<std::size_t>(std::lround(q * (frame_ms.size() - 1)))]; };
+  state.counters["median_ms"] = at(0.5);
+  state.counters["p95_ms"] = at(0.95);
+  state.counters["max_ms"] = frame_ms.back();
+  state.counters["frames_with_pose"] = poses;
+  state.counters["shift_fixes"] = shift_fixes;
+}
+BENCHMARK_CAPTURE(BM_RepeatFrames, Hybrid_SIFT, false)
+    ->UseManualTime()->Iterations(40)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_RepeatFrames, Hybrid_SIFT_seasonal, true)
+    ->UseManualTime()->Iterations(40)->Unit(benchmark::kMillisecond);
 
 // The matching step alone, up to 1500 x 1500 features on two frames of the synthetic wall: ours
 // (one distance matrix: popcount for ORB, cv::batchDistance rows for SIFT; ratio test + mutual

@@ -367,6 +367,7 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
       outcome.degraded = result.estimate->degraded;
       outcome.tracked = result.estimate->tracked;
     }
+    outcome.fixes = result.fixes;
     outcome.pose = result.pose;
     outcome.covariance = result.covariance;
 
@@ -434,7 +435,7 @@ nlohmann::json toJson(const SequenceEvaluation& evaluation) {
   for (const auto& f : evaluation.frames) {
     nlohmann::json j{{"frame", f.frame},       {"stamp", f.stamp},       {"status", f.status},
                      {"keyframe", f.keyframe}, {"inliers", f.inliers},   {"degraded", f.degraded},
-                     {"tracked", f.tracked},   {"time_ms", f.time_ms},   {"segment", f.segment},
+                     {"tracked", f.tracked},   {"fixes", f.fixes},       {"time_ms", f.time_ms},   {"segment", f.segment},
                      {"distance_m", f.distance}, {"truth", pose(*f.truth)}, {"scoring_keyframe", f.scoring_keyframe}};
     j["pose"] = f.pose ? pose(*f.pose) : nlohmann::json(nullptr);
     if (f.covariance) {

@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -63,6 +64,41 @@ Expected<ShiftHeadingFix> KeyframeShiftHeading::measure(int keyframe, const Shif
   const auto reference = keyframeFeatures(keyframe);
   if (!reference) return reference.status();
   return shift_heading_.measure(**reference, current, camera_.cx(), camera_.fx());
+}
+
+std::vector<ShiftHeadingAudit> auditShiftHeading(const Route& route, const PinholeCamera& camera,
+                                                 const KeyframeShiftHeadingOptions& options) {
+  KeyframeShiftHeadingOptions two = options;
+  two.cache_size = std::max(2, options.cache_size);  // this keyframe and the next one
+  KeyframeShiftHeading shift(route, camera, two);
+  const int n = shift.keyframeCount();
+  std::vector<ShiftHeadingAudit> audits;
+  for (int k = 0; k < n; ++k) {
+    ShiftHeadingAudit a;
+    a.keyframe = k;
+    const auto image = loadKeyframeImage(route, static_cast<std::size_t>(k));
+    const auto features = image ? shift.describe(*image) : Expected<ShiftFeatures>(image.status());
+    if (!features) {
+      a.problem = features.status().message();
+      audits.push_back(a);
+      continue;
+    }
+    for (const ImageFeatures& set : features->sets) a.features += static_cast<int>(set.keypoints.size());
+    a.neighbour = k + 1 < n ? k + 1 : k - 1;
+    if (a.neighbour < 0) {
+      a.problem = "the route has one keyframe";
+    } else {
+      const auto fix = shift.measure(a.neighbour, *features);
+      if (fix) {
+        a.support = fix->shift.support;
+        a.ambiguous = fix->ambiguous;
+      } else {
+        a.problem = fix.status().message();
+      }
+    }
+    audits.push_back(a);
+  }
+  return audits;
 }
 
 }  // namespace homography_teach_repeat

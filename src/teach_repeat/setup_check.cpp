@@ -147,6 +147,13 @@ void checkView(const SetupObservations& seen, const SetupCheckOptions& o, std::v
                                 *seen.vertical_lines, o.min_vertical_lines),
                          "mu and hybrid mode need door frames, shelves, pillars in view; fast_hd does not", false});
   }
+  if (seen.shift_features && *seen.shift_features < o.min_shift_features) {
+    problems->push_back({format("%.0f features for the seasonal heading fix in the current view (at least %.0f wanted)",
+                                *seen.shift_features, o.min_shift_features),
+                         "hybrid mode's heading fix across seasons matches upright AKAZE and BRIEF corners: point the "
+                         "camera at textured scenery (facades, trees, fences) rather than sky or road",
+                         false});
+  }
 }
 
 }  // namespace

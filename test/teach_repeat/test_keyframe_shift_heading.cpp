@@ -152,3 +152,31 @@ TEST_F(KeyframeShiftHeadingTest, OneAttemptPerPeriod) {
   options.shift_heading_period = -1.0;
   EXPECT_EQ(RepeatPipeline::create(route(), options).status().code(), StatusCode::kInvalidInput);
 }
+
+// The route audit's view of the seasonal fix: every keyframe's features and its vote against the
+// next keyframe (the last against the previous); an unreadable keyframe image is named, not fatal.
+TEST_F(KeyframeShiftHeadingTest, AuditCountsFeaturesAndTheVoteToTheNextKeyframe) {
+  const Route r = route();
+  const auto audits = auditShiftHeading(r, camera());
+  ASSERT_EQ(audits.size(), r.keyframes.size());
+  for (const ShiftHeadingAudit& a : audits) {
+    EXPECT_TRUE(a.problem.empty()) << a.keyframe << ": " << a.problem;
+    EXPECT_GT(a.features, 500) << a.keyframe;
+    EXPECT_GT(a.support, 50) << a.keyframe;
+  }
+  EXPECT_EQ(audits.front().neighbour, 1);
+  EXPECT_EQ(audits.back().neighbour, static_cast<int>(r.keyframes.size()) - 2);
+
+  const std::string copy = test_support::makeTemporaryDirectory("htr_shift_audit");
+  std::filesystem::copy(directory_, copy, std::filesystem::copy_options::recursive);
+  auto broken = loadRoute(copy);
+  ASSERT_TRUE(broken.isOk());
+  std::filesystem::resize_file(copy + "/" + broken->keyframes[1].image_file, 100);
+  const auto with_broken = auditShiftHeading(*broken, camera());
+  ASSERT_EQ(with_broken.size(), r.keyframes.size());
+  EXPECT_NE(with_broken[1].problem.find(broken->keyframes[1].image_file), std::string::npos) << with_broken[1].problem;
+  EXPECT_EQ(with_broken[1].features, 0);
+  EXPECT_FALSE(with_broken[0].problem.empty());  // its vote was against keyframe 1
+  EXPECT_TRUE(with_broken[2].problem.empty()) << with_broken[2].problem;
+  std::filesystem::remove_all(copy);
+}

@@ -31,6 +31,7 @@ SetupObservations goodSetup() {
   seen.camera_mount = mount;
   seen.features = 1200;
   seen.vertical_lines = 25;
+  seen.shift_features = 2400;
   return seen;
 }
 
@@ -123,6 +124,10 @@ TEST(SetupCheck, CameraMountAndView) {
   SetupObservations bare = goodSetup();
   bare.features = 40;
   bare.vertical_lines = 2;
-  EXPECT_TRUE(mentions(problemsOf(bare), "40 features"));
+  bare.shift_features = 90;
+  bool blocking = true;
+  EXPECT_TRUE(mentions(problemsOf(bare, &blocking), "40 features"));
+  EXPECT_FALSE(blocking);  // warnings: teaching works, worse
   EXPECT_TRUE(mentions(problemsOf(bare), "2 vertical lines"));
+  EXPECT_TRUE(mentions(problemsOf(bare), "90 features for the seasonal heading fix"));
 }

@@ -87,6 +87,7 @@ struct FrameOutcome {
   int scoring_keyframe = -1;
   int inliers = 0;
   bool degraded = false, tracked = false;
+  std::string fixes;  // mu/hybrid: what corrected the filter (RepeatFrameResult::fixes)
   std::optional<Pose2D> pose;  // published pose (route frame)
   std::optional<Eigen::Matrix3d> covariance;
   std::optional<Pose2D> truth;  // ground truth in the route frame

@@ -11,7 +11,9 @@
 #include <opencv2/core.hpp>
 
 #include <list>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
@@ -55,5 +57,19 @@ class KeyframeShiftHeading {
   ShiftHeading shift_heading_;
   std::list<std::pair<int, ShiftFeatures>> cache_;  // most recently used first
 };
+
+// What the seasonal heading fix has to work with along a route (route_info, docs/route_audit.md):
+// each keyframe's features for it and the vote against the next keyframe's image (the previous
+// one's for the last keyframe of an open route), the view of a robot a keyframe spacing away.
+struct ShiftHeadingAudit {
+  int keyframe = 0;
+  int features = 0;           // upright AKAZE + BRIEF in the keyframe image
+  int neighbour = -1;         // the keyframe voted against (-1: none, a route of one keyframe)
+  int support = 0;            // the vote's support against it (0: no vote, see problem)
+  bool ambiguous = false;
+  std::string problem;        // why there is no vote (an unreadable image, too few matches)
+};
+std::vector<ShiftHeadingAudit> auditShiftHeading(const Route& route, const PinholeCamera& camera,
+                                                 const KeyframeShiftHeadingOptions& options = {});
 
 }  // namespace homography_teach_repeat

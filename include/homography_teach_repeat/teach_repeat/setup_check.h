@@ -27,6 +27,8 @@ struct SetupObservations {
   std::string camera_mount_problem;             // why there is none (tf's message)
   std::optional<int> features;                 // in the last image (the route's feature type)
   std::optional<int> vertical_lines;           // in the last image
+  // in the last image: the seasonal heading fix's features (upright AKAZE + BRIEF, ShiftHeading)
+  std::optional<int> shift_features;
 };
 
 struct SetupCheckOptions {
@@ -36,6 +38,7 @@ struct SetupCheckOptions {
   double max_tilt = 0.035;          // [rad] (2°) of the camera from level
   int min_features = 300;
   int min_vertical_lines = 10;
+  int min_shift_features = 200;  // of the seasonal heading fix (both types together)
 };
 
 struct SetupProblem {
@@ -46,8 +49,8 @@ struct SetupProblem {
 
 // Every problem found, in the order of the checks: camera_info (present, calibrated, consistent
 // with the images), image and odometry rates, stamps of images and odometry overlapping, odometry
-// values and covariance, the camera mount (tf present, level), features and vertical lines in
-// view. Empty: the set-up is fine.
+// values and covariance, the camera mount (tf present, level), features, vertical lines and the
+// seasonal heading fix's features in view. Empty: the set-up is fine.
 std::vector<SetupProblem> checkSetup(const SetupObservations& seen, const SetupCheckOptions& options = {});
 
 // The rate [Hz] of stamps (their count − 1 over their span); 0 for fewer than two.

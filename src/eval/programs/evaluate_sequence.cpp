@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}, {"mu-line-landmarks", "0"}, {"line-min-length", "25"}},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}, {"mu-line-landmarks", "0"}, {"line-min-length", "25"}, {"shift-heading", "1"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
       "  [--heading-sigma RAD] (a heading error many matches do not average away, added to the covariance)\n"
       "  [--mu-line-landmarks 0|1] (mu: each keyframe line triangulated with its own depth, a fix from every line)\n"
       "  [--line-min-length PX] (shortest vertical line kept, teach and repeat)\n"
+      "  [--shift-heading 0|1] (hybrid: the seasonal heading fix where no other fix, RepeatPipelineOptions)\n"
       "  [--plots 0|1]");
   args.parse(argc, argv);
   const std::string out = args.text("out");
@@ -129,6 +130,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.localization.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.repeat.localization.max_tracked_frames = args.integer("max-tracked-frames");
+  options.repeat.shift_heading = args.integer("shift-heading") != 0;
   options.repeat.localization.mu_line_landmarks = args.integer("mu-line-landmarks") != 0;
   options.teach.lines.min_length_px = args.integer("line-min-length");
   options.repeat.localization.lines.min_length_px = args.integer("line-min-length");
@@ -228,6 +230,7 @@ int main(int argc, char** argv) {
                        {"max_plane_residual_px", options.repeat.localization.max_plane_residual_px},
                        {"plane_sigma_from_neighbours", options.repeat.localization.plane_sigma_from_neighbours},
                        {"max_tracked_frames", options.repeat.localization.max_tracked_frames},
+                       {"shift_heading", options.repeat.shift_heading},
                        {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
                        {"planes", options.teach.planes_from_odometry ? "from odometry" : "first plane distance"},
                        {"command", [&] {

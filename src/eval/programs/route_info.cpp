@@ -14,6 +14,7 @@
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 
 using namespace homography_teach_repeat;
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", "0.30"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
        {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
-       {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"migrate", ""}},
+       {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"shift-heading", "1"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
       "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
       "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
       "  [--min-lines N] (what makes a keyframe weak)\n"
+      "  [--shift-heading 0|1] (1: the seasonal heading fix's features and vote per keyframe, ~0.2 s each)\n"
       "  [--plots 0|1]");
   args.parse(argc, argv);
   if (!args.text("migrate").empty()) {
@@ -122,8 +124,12 @@ int main(int argc, char** argv) {
     std::cerr << "route_info: " << audit.status().toString() << "\n";
     return 1;
   }
-  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
-              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "weak");
+  // The seasonal heading fix's material (keyframe_shift_heading.h): its features per keyframe and
+  // its vote's support against the next keyframe.
+  std::vector<ShiftHeadingAudit> shift;
+  if (args.integer("shift-heading") != 0) shift = auditShiftHeading(*route, PinholeCamera(route->info.camera));
+  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s %11s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
+              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "shift f/vote", "weak");
   for (const KeyframeAudit& a : audit->keyframes) {
     double position = NAN, heading = NAN;
     if (a.predicted_covariance) {
@@ -134,9 +140,14 @@ int main(int argc, char** argv) {
     std::string weak;
     for (const auto& w : a.fast_hd_weaknesses) weak += "fast_hd: " + w + "; ";
     for (const auto& w : a.mu_weaknesses) weak += "mu: " + w + "; ";
-    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f  %s\n", a.keyframe, a.pose.x, a.pose.y,
+    std::string seasonal = "-";
+    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
+      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
+      seasonal = std::to_string(h.features) + "/" + std::to_string(h.support) + (h.ambiguous ? "?" : "");
+    }
+    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f %11s  %s\n", a.keyframe, a.pose.x, a.pose.y,
                 a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
-                a.has_plane ? a.plane_distance_m : NAN, weak.c_str());
+                a.has_plane ? a.plane_distance_m : NAN, seasonal.c_str(), weak.c_str());
   }
   for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
   std::printf("%d keyframes; weak for fast_hd: %d, for mu: %d\n", static_cast<int>(audit->keyframes.size()),
@@ -157,7 +168,15 @@ int main(int argc, char** argv) {
                        {"max_alias_ratio", options.max_alias_ratio}, {"min_lines", options.min_lines}};
   document["summary"] = {{"keyframes", audit->keyframes.size()}, {"weak_for_fast_hd", audit->weak_for_fast_hd},
                          {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
-  for (const KeyframeAudit& a : audit->keyframes) document["keyframes"].push_back(toJson(a));
+  for (const KeyframeAudit& a : audit->keyframes) {
+    nlohmann::json k = toJson(a);
+    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
+      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
+      k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
+                            {"ambiguous", h.ambiguous}, {"problem", h.problem}};
+    }
+    document["keyframes"].push_back(k);
+  }
   const std::string out = args.text("out");
   std::error_code error;
   std::filesystem::create_directories(out, error);

@@ -1,7 +1,7 @@
 // check_setup: before a robot teaches, is its set-up one teach and repeat can work with? Listens
 // for `duration` seconds to the camera (image_transport camera: camera/image_raw +
 // camera/camera_info), the odometry (odom) and the tf base_frame -> the camera's frame, extracts
-// the features (feature_type) and vertical lines of the last image, and hands what it saw to the
+// the features (feature_type), vertical lines and seasonal-fix features of the last image, and hands what it saw to the
 // ROS-free checkSetup (teach_repeat/setup_check.h). Prints every problem with how to fix it,
 // publishes the report on ~report (std_msgs/String, latched) and /diagnostics, and exits 0 when
 // nothing blocks teaching, 1 otherwise (2: bad parameters).
@@ -10,7 +10,7 @@
 // camera, commonly the last to come up), at the latest after startup_wait seconds.
 // Parameters (private): duration [s] 5, startup_wait [s] 10, base_frame base_link, camera_frame (default: camera_info's
 // frame_id), feature_type sift, min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2,
-// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, line_min_length_px 25,
+// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 25,
 // image_transport raw (or compressed: camera/image_raw/compressed, JPEG or PNG).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <image_transport/image_transport.h>
@@ -28,6 +28,7 @@
 
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/features/vertical_lines.h"
+#include "homography_teach_repeat/mu/shift_heading.h"
 #include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/ros/compressed_image.h"
 #include "homography_teach_repeat/ros/conversions.h"
@@ -58,7 +59,7 @@ const char* const kUsage =
     "at the latest after `startup_wait` seconds (drivers started beside check_setup get the time to come up).\n"
     "Exit 0: ready to teach; 1: a problem blocks teaching; 2: bad parameters.\n"
     "Other parameters: min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2 s, max_tilt 0.035 rad,\n"
-    "min_features 300, min_vertical_lines 10, line_min_length_px 25 (docs/using.md).\n";
+    "min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 25 (docs/using.md).\n";
 
 Settings readSettings(const ros::NodeHandle& p) {
   Settings s;
@@ -79,6 +80,7 @@ Settings readSettings(const ros::NodeHandle& p) {
     c.max_tilt = htr::readParameter(p, "max_tilt", c.max_tilt);
     c.min_features = htr::readParameter(p, "min_features", c.min_features);
     c.min_vertical_lines = htr::readParameter(p, "min_vertical_lines", c.min_vertical_lines);
+    c.min_shift_features = htr::readParameter(p, "min_shift_features", c.min_shift_features);
     s.lines.min_length_px = htr::readParameter(p, "line_min_length_px", s.lines.min_length_px);
     s.image_transport = htr::readImageTransport(p);
     s.lines.validate();
@@ -203,6 +205,13 @@ int main(int argc, char** argv) {
         htr::VerticalLineExtractor line_extractor(settings.lines);
         const auto lines = line_extractor.extract(*image);
         if (lines) seen.vertical_lines = static_cast<int>(lines->size());
+        htr::ShiftHeading shift_heading;
+        const auto shift_features = shift_heading.describe(*image);
+        if (shift_features) {
+          int count = 0;
+          for (const auto& set : shift_features->sets) count += static_cast<int>(set.keypoints.size());
+          seen.shift_features = count;
+        }
       } catch (const std::invalid_argument& e) {
         seen.image_problem = e.what();
       }
@@ -219,6 +228,7 @@ int main(int argc, char** argv) {
          << seen.odometry_stamps.size() << " odometry messages (" << htr::stampRate(seen.odometry_stamps) << " Hz)";
   if (seen.features) report << ", " << *seen.features << " features";
   if (seen.vertical_lines) report << ", " << *seen.vertical_lines << " vertical lines";
+  if (seen.shift_features) report << ", " << *seen.shift_features << " seasonal-fix features";
   report << " in " << settings.duration << " s\n";
   for (const auto& p : problems) {
     blocking = blocking || p.blocking;
