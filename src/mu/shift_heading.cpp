@@ -31,6 +31,12 @@ void ShiftHeadingOptions::validate() const {
   }
 }
 
+bool ShiftHeadingFix::pickedBy(double predicted_mu) const {
+  if (!std::isfinite(predicted_mu)) return false;
+  if (!ambiguous) return true;
+  return 2.0 * std::abs(mu - predicted_mu) < std::abs(shift.runner_up_shift_px - predicted_mu);
+}
+
 ShiftHeading::ShiftHeading(const ShiftHeadingOptions& options) : options_(options) {
   options_.validate();
   for (const FeatureOptions& f : options_.features) extractors_.emplace_back(f);

@@ -145,9 +145,11 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   const Route& route = localizer_.route();
   const int k = localizer_.trackedKeyframe();
   const RouteKeyframe& keyframe = route.keyframes[static_cast<std::size_t>(k)];
+  std::optional<Pose2D> predicted;
   if (filter_.aligned()) {
-    const auto predicted = filter_.predictedPose(*odom);
-    if (!predicted) return predicted.status();
+    const auto prediction = filter_.predictedPose(*odom);
+    if (!prediction) return prediction.status();
+    predicted = *prediction;
     const double away = std::abs(wrapToPi(predicted->yaw - keyframe.pose.yaw));
     if (away > options_.localization.mu_max_reference_angle) {
       char message[200];
@@ -169,24 +171,21 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   auto wall = muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, fx, k);
   if (fix->ambiguous) {
     // Two shifts compete (repeated structure, a near object's parallax): taken only where the
-    // filter's prediction picks the winner, the runner-up at least twice as far from it.
-    std::optional<double> predicted_mu;
-    if (filter_.aligned()) {
-      const auto predicted = filter_.predictedPose(*odom);
-      if (predicted && wall) {
-        const auto H = wallHomography1dAt(*wall, *predicted);
-        if (H && std::abs((*H)(1, 1)) > 1e-12) predicted_mu = (*H)(0, 1) / (*H)(1, 1);
-      } else if (predicted) {
-        predicted_mu = fx * std::tan(wrapToPi(predicted->yaw - keyframe.pose.yaw));
-      }
+    // filter's prediction picks the winner (ShiftHeadingFix::pickedBy).
+    double predicted_mu = NAN;
+    if (predicted && wall) {
+      const auto H = wallHomography1dAt(*wall, *predicted);
+      if (H && std::abs((*H)(1, 1)) > 1e-12) predicted_mu = (*H)(0, 1) / (*H)(1, 1);
+    } else if (predicted) {
+      predicted_mu = fx * std::tan(wrapToPi(predicted->yaw - keyframe.pose.yaw));
     }
-    const double runner_up = fix->shift.runner_up_shift_px;
-    if (!predicted_mu || !(std::abs(fix->mu - *predicted_mu) * 2.0 < std::abs(runner_up - *predicted_mu))) {
+    if (!fix->pickedBy(predicted_mu)) {
       char message[240];
       std::snprintf(message, sizeof(message),
                     "ambiguous against keyframe %d: %.0f px (%d votes) or %.0f px (%d votes), and the prediction "
-                    "does not tell them apart",
-                    k, fix->mu, fix->shift.support, runner_up, fix->shift.runner_up_support);
+                    "(%.0f px) does not pick the first",
+                    k, fix->mu, fix->shift.support, fix->shift.runner_up_shift_px, fix->shift.runner_up_support,
+                    predicted_mu);
       return Status(StatusCode::kNoConsensus, message);
     }
   }

@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
+
 #include "homography_teach_repeat/mu/shift_heading.h"
 #include "support/test_images.h"
 
@@ -52,6 +54,15 @@ TEST(ShiftHeading, TwoCompetingShiftsMakeTheFixAmbiguous) {
   ASSERT_TRUE(fix.isOk()) << fix.status().toString();
   EXPECT_TRUE(fix->ambiguous) << fix->shift.support << " against " << fix->shift.runner_up_support;
   EXPECT_NEAR(std::abs(fix->mu), 40.0, 2.0);
+  EXPECT_NEAR(fix->shift.runner_up_shift_px, -fix->mu, 3.0);
+  // A prediction near the winner picks it; one near the runner-up, halfway or unknown does not.
+  EXPECT_TRUE(fix->pickedBy(fix->mu + 5.0));
+  EXPECT_FALSE(fix->pickedBy(fix->shift.runner_up_shift_px));
+  EXPECT_FALSE(fix->pickedBy(0.0));
+  EXPECT_FALSE(fix->pickedBy(NAN));
+  ShiftHeadingFix clear = *fix;
+  clear.ambiguous = false;
+  EXPECT_TRUE(clear.pickedBy(fix->shift.runner_up_shift_px));  // nothing competes: any prediction
 }
 
 TEST(ShiftHeading, UnrelatedViewsGiveNoFixOrASmallSupport) {

@@ -47,6 +47,11 @@ struct ShiftHeadingFix {
   ImageShift shift;       // the vote (support, runner-up, scale)
   int matches = 0;        // mutual nearest matches of all types
   bool ambiguous = false; // shift.runner_up_support >= ambiguity_ratio · shift.support
+
+  // Whether a prediction of μ [px] (e.g. the localization filter's) picks this fix: always for an
+  // unambiguous one; for an ambiguous one when the prediction is at most half as far from `mu` as
+  // from the runner-up's shift (shift.runner_up_shift_px). False for a non-finite prediction.
+  bool pickedBy(double predicted_mu) const;
 };
 
 class ShiftHeading {
