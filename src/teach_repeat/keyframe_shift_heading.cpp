@@ -1,6 +1,9 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 
+#include <opencv2/imgcodecs.hpp>
+
 #include <algorithm>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -38,32 +41,74 @@ Expected<ShiftFeatures> KeyframeShiftHeading::describe(const cv::Mat& image) {
   return features;
 }
 
-Expected<const ShiftFeatures*> KeyframeShiftHeading::keyframeFeatures(int keyframe) {
+Status KeyframeShiftHeading::checkKeyframe(int keyframe) const {
+  if (keyframe >= 0 && keyframe < keyframeCount()) return Status::ok();
+  return Status(StatusCode::kInvalidInput, "shift heading: keyframe " + std::to_string(keyframe) +
+                                               " is not in the route (" + std::to_string(keyframeCount()) + ")");
+}
+
+Expected<const ShiftFeatures*> KeyframeShiftHeading::viewFeatures(int keyframe, int experience) {
+  const std::pair<int, int> key(keyframe, experience);
   for (auto it = cache_.begin(); it != cache_.end(); ++it) {
-    if (it->first != keyframe) continue;
+    if (it->first != key) continue;
     cache_.splice(cache_.begin(), cache_, it);
     return &cache_.front().second;
   }
-  if (keyframe < 0 || keyframe >= keyframeCount()) {
-    return Status(StatusCode::kInvalidInput, "shift heading: keyframe " + std::to_string(keyframe) +
-                                                 " is not in the route (" + std::to_string(keyframeCount()) + ")");
+  const Status in_route = checkKeyframe(keyframe);
+  if (!in_route.isOk()) return in_route;
+  const RouteKeyframe& taught = route_.keyframes[static_cast<std::size_t>(keyframe)];
+  Expected<cv::Mat> image = Status(StatusCode::kInvalidInput, "no such view");
+  if (experience == 0) {
+    image = loadKeyframeImage(route_, static_cast<std::size_t>(keyframe));
+  } else if (experience <= static_cast<int>(taught.experiences.size())) {
+    const std::string path = route_.directory + "/" + taught.experiences[static_cast<std::size_t>(experience - 1)].image_file;
+    cv::Mat read = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (read.empty()) {
+      image = Status(StatusCode::kInvalidInput, "experience image '" + path + "' cannot be decoded");
+    } else {
+      image = read;
+    }
   }
-  const auto image = loadKeyframeImage(route_, static_cast<std::size_t>(keyframe));
   if (!image) return image.status();
   auto features = describe(*image);
   if (!features) {
     return Status(features.status().code(), "shift heading, keyframe " + std::to_string(keyframe) + ": " +
                                                 features.status().message());
   }
-  cache_.emplace_front(keyframe, std::move(*features));
+  cache_.emplace_front(key, std::move(*features));
   while (static_cast<int>(cache_.size()) > options_.cache_size) cache_.pop_back();
   return &cache_.front().second;
 }
 
 Expected<ShiftHeadingFix> KeyframeShiftHeading::measure(int keyframe, const ShiftFeatures& current) {
-  const auto reference = keyframeFeatures(keyframe);
+  const auto reference = viewFeatures(keyframe, 0);
   if (!reference) return reference.status();
   return shift_heading_.measure(**reference, current, camera_.cx(), camera_.fx());
+}
+
+Expected<ViewShiftFix> KeyframeShiftHeading::measureViews(int keyframe, const ShiftFeatures& current) {
+  const Status in_route = checkKeyframe(keyframe);
+  if (!in_route.isOk()) return in_route;
+  const auto taught = measure(keyframe, current);
+  std::optional<ViewShiftFix> best;
+  const auto better = [](const ViewShiftFix& a, const std::optional<ViewShiftFix>& b) {
+    if (!b) return true;
+    if (a.fix.ambiguous != b->fix.ambiguous) return !a.fix.ambiguous;
+    return a.fix.shift.support > b->fix.shift.support;
+  };
+  const RouteKeyframe& kf = route_.keyframes[static_cast<std::size_t>(keyframe)];
+  if (taught) best = ViewShiftFix{*taught, 0, kf.pose, 0.0};
+  for (std::size_t e = 0; e < kf.experiences.size(); ++e) {
+    const auto reference = viewFeatures(keyframe, static_cast<int>(e) + 1);
+    if (!reference) continue;
+    const auto fix = shift_heading_.measure(**reference, current, camera_.cx(), camera_.fx());
+    if (!fix) continue;
+    const RouteExperience& learned = kf.experiences[e];
+    const ViewShiftFix candidate{*fix, learned.id, learned.pose, learned.pose_covariance(2, 2)};
+    if (better(candidate, best)) best = candidate;
+  }
+  if (!best) return taught.status();
+  return *best;
 }
 
 std::vector<ShiftHeadingAudit> auditShiftHeading(const Route& route, const PinholeCamera& camera,

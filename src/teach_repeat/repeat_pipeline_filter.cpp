@@ -162,13 +162,16 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   last_shift_heading_stamp_ = stamp;
   const auto current = shift_heading_->describe(image);
   if (!current) return current.status();
-  const auto fix = shift_heading_->measure(k, *current);
-  if (!fix) return fix.status();
+  const auto view = shift_heading_->measureViews(k, *current);
+  if (!view) return view.status();
+  const ShiftHeadingFix* const fix = &view->fix;
   const double fx = localizer_.camera().fx();
-  // μ is the shift of the principal point: the camera turned by atan(μ/f) from the keyframe's
-  // (docs/math.md §4.5), up to the coupling to a lateral offset that the wall model holds.
-  const double route_yaw = wrapToPi(keyframe.pose.yaw + std::atan(fix->mu / fx));
-  auto wall = muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, fx, k);
+  // μ is the shift of the principal point: the camera turned by atan(μ/f) from the view's
+  // (docs/math.md §4.5), up to the coupling to a lateral offset that the wall model holds. An
+  // experience (a learned view) has no wall of its own: a heading fix, with its yaw's variance.
+  const double route_yaw = wrapToPi(view->view_pose.yaw + std::atan(fix->mu / fx));
+  auto wall = view->experience == 0 ? muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, fx, k)
+                                    : std::nullopt;
   if (fix->ambiguous) {
     // Two shifts compete (repeated structure, a near object's parallax): taken only where the
     // filter's prediction picks the winner (ShiftHeadingFix::pickedBy).
@@ -177,7 +180,7 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
       const auto H = wallHomography1dAt(*wall, *predicted);
       if (H && std::abs((*H)(1, 1)) > 1e-12) predicted_mu = (*H)(0, 1) / (*H)(1, 1);
     } else if (predicted) {
-      predicted_mu = fx * std::tan(wrapToPi(predicted->yaw - keyframe.pose.yaw));
+      predicted_mu = fx * std::tan(wrapToPi(predicted->yaw - view->view_pose.yaw));
     }
     if (!fix->pickedBy(predicted_mu)) {
       char message[240];
@@ -191,7 +194,7 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   }
   if (!filter_.aligned()) {
     // The start keyframe is known (start_keyframe): the filter starts there, as with a first μ fix.
-    Status aligned = filter_.align(Pose2D(keyframe.pose.x, keyframe.pose.y, route_yaw), *odom);
+    Status aligned = filter_.align(Pose2D(view->view_pose.x, view->view_pose.y, route_yaw), *odom);
     if (!aligned.isOk()) return aligned;
     integrity_.addFix(stamp, true, std::nullopt, 0, fix->shift.support);
   } else {
@@ -202,7 +205,7 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
       wall->needs_confirmation = false;  // the vote's own consensus, not a line association
       corrected = filter_.correctWithMu(*wall, *odom);
     } else {
-      corrected = filter_.correctHeading(route_yaw, *odom, fix->variance / (fx * fx));
+      corrected = filter_.correctHeading(route_yaw, *odom, fix->variance / (fx * fx) + view->view_yaw_variance);
     }
     recordFix(stamp, corrected.isOk(), fix->shift.support);
     if (!corrected.isOk()) {
@@ -215,6 +218,7 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   RepeatEstimate estimate;
   estimate.mode = RepeatMode::kMu;
   estimate.keyframe = k;
+  estimate.experience = view->experience;
   estimate.matches = fix->matches;
   estimate.inliers = fix->shift.support;
   estimate.mu = fix->mu;

@@ -1,6 +1,7 @@
 // The seasonal heading fix of the repeat: KeyframeShiftHeading against a route's stored keyframe
 // images, and RepeatPipeline (hybrid) taking it where a frame has no Fast-HD pose and no μ fix.
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -178,5 +179,37 @@ TEST_F(KeyframeShiftHeadingTest, AuditCountsFeaturesAndTheVoteToTheNextKeyframe)
   EXPECT_EQ(with_broken[1].features, 0);
   EXPECT_FALSE(with_broken[0].problem.empty());  // its vote was against keyframe 1
   EXPECT_TRUE(with_broken[2].problem.empty()) << with_broken[2].problem;
+  std::filesystem::remove_all(copy);
+}
+
+// A place whose taught view no longer matches (here: its image blanked) but that a repeat run
+// learned again (an experience): the fix comes from the experience, relative to its pose.
+TEST_F(KeyframeShiftHeadingTest, AnExperienceGivesTheFixWhereTheTaughtViewNoLongerMatches) {
+  const std::string copy = test_support::makeTemporaryDirectory("htr_shift_experience");
+  std::filesystem::copy(directory_, copy, std::filesystem::copy_options::recursive);
+  auto r = loadRoute(copy);
+  ASSERT_TRUE(r.isOk());
+  cv::imwrite(copy + "/" + r->keyframes[0].image_file, cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)));
+  const PlanarPose learned_camera = pathCamera(0.0, 1.0 * kDegree);
+  const cv::Mat learned_image = wall_->imageAt(learned_camera);
+  FeatureOptions features;
+  features.type = r->info.feature_type;
+  const auto learned_features = FeatureExtractor(features).extract(learned_image);
+  ASSERT_TRUE(learned_features.isOk());
+  const Eigen::Matrix3d covariance = Eigen::Vector3d(1e-4, 1e-4, 1e-5).asDiagonal();
+  ASSERT_TRUE(addExperience(*r, 0, learned_image, *learned_features, cameraAxesToRep103(learned_camera), covariance, 50.0)
+                  .isOk());
+
+  KeyframeShiftHeading shift(*r, camera());
+  const auto current = shift.describe(wall_->imageAt(pathCamera(0.0, 3.0 * kDegree)));
+  ASSERT_TRUE(current.isOk());
+  EXPECT_FALSE(shift.measure(0, *current).isOk());  // the blank taught view
+  const auto view = shift.measureViews(0, *current);
+  ASSERT_TRUE(view.isOk()) << view.status().toString();
+  EXPECT_EQ(view->experience, r->keyframes[0].experiences.front().id);
+  EXPECT_DOUBLE_EQ(view->view_yaw_variance, 1e-5);
+  const double yaw = wrapToPi(view->view_pose.yaw + std::atan(view->fix.mu / camera().fx()));
+  EXPECT_NEAR(wrapToPi(yaw - cameraAxesToRep103(pathCamera(0.0, 3.0 * kDegree)).yaw), 0.0, 0.1 * kDegree);
+  EXPECT_EQ(shift.measureViews(99, *current).status().code(), StatusCode::kInvalidInput);
   std::filesystem::remove_all(copy);
 }

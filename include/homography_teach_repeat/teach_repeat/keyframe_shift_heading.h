@@ -2,8 +2,9 @@
 // seasons"): ShiftHeading (mu/shift_heading.h) of the current image against a route keyframe's
 // stored image. The mu and hybrid modes take it where a frame has neither a Fast-HD pose nor a μ or
 // line fix (RepeatPipeline, docs/nodes/repeat_node.md, "The seasonal heading fix").
-//  - The keyframe's image (keyframes/NNNNNN.png, as recorded) is read and described on first use;
-//    the features of the `cache_size` most recently used keyframes are kept.
+//  - The keyframe's image (keyframes/NNNNNN.png, as recorded) and those of its experiences (views
+//    learned by earlier repeat runs, docs/route_format.md) are read and described on first use; the
+//    features of the `cache_size` most recently used views are kept.
 //  - Keypoints are undistorted with the route's calibration before the vote, which runs on angles
 //    (the camera's fx), so μ is that of the ideal pinhole camera at the principal point cx.
 #pragma once
@@ -24,9 +25,17 @@ namespace homography_teach_repeat {
 
 struct KeyframeShiftHeadingOptions {
   ShiftHeadingOptions shift;
-  int cache_size = 32;  // keyframes whose features are kept (>= 1; about 0.25 MB each at the defaults)
+  int cache_size = 32;  // views (keyframes and experiences) whose features are kept (>= 1; about 0.25 MB each at the defaults)
 
   void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// A fix against one of a keyframe's views.
+struct ViewShiftFix {
+  ShiftHeadingFix fix;
+  int experience = 0;  // 0: the taught view; otherwise the experience's id (RouteExperience::id)
+  Pose2D view_pose;    // base_link of that view in the route frame (the taught keyframe's pose)
+  double view_yaw_variance = 0.0;  // [rad²] of view_pose's yaw (an experience's estimate; 0 taught)
 };
 
 class KeyframeShiftHeading {
@@ -43,19 +52,25 @@ class KeyframeShiftHeading {
   // Status: kInvalidInput for a keyframe out of range or an unreadable keyframe image (naming the
   // file; retried on the next call), otherwise ShiftHeading::measure's.
   Expected<ShiftHeadingFix> measure(int keyframe, const ShiftFeatures& current);
+  // The same against the taught view and every experience of the keyframe: the unambiguous fix
+  // with the most support, else the most supported one. An experience whose image cannot be read
+  // is skipped; the status is the taught view's when no view gives a fix.
+  Expected<ViewShiftFix> measureViews(int keyframe, const ShiftFeatures& current);
 
   int keyframeCount() const { return static_cast<int>(route_.keyframes.size()); }
   int cachedKeyframes() const { return static_cast<int>(cache_.size()); }
 
  private:
-  Expected<const ShiftFeatures*> keyframeFeatures(int keyframe);
+  Status checkKeyframe(int keyframe) const;  // kInvalidInput out of range
+  // `experience`: 0 the taught view, e >= 1 the keyframe's experiences[e - 1].
+  Expected<const ShiftFeatures*> viewFeatures(int keyframe, int experience);
   void undistort(ShiftFeatures* features) const;
 
   Route route_;  // the keyframes' image files
   PinholeCamera camera_;
   KeyframeShiftHeadingOptions options_;
   ShiftHeading shift_heading_;
-  std::list<std::pair<int, ShiftFeatures>> cache_;  // most recently used first
+  std::list<std::pair<std::pair<int, int>, ShiftFeatures>> cache_;  // (keyframe, view); most recent first
 };
 
 // What the seasonal heading fix has to work with along a route (route_info, docs/route_audit.md):

@@ -14,8 +14,9 @@
 //    checks and the odometry gate (§7.1), the μ fix (or line landmark fix) where it has vertical
 //    lines, both where both exist, the odometry alone in between (within max_unaided_distance).
 //    Where none of these is available, the seasonal heading fix (ShiftHeading against the nearest
-//    keyframe's image, shift_heading). The published pose and covariance are the filter's. A route without planes runs on μ, one
-//    without lines on Fast-HD (hybridNotes() says what is missing).
+//    keyframe's images, shift_heading). The published pose and covariance are the filter's. A
+//    route without planes runs on μ, one without lines on Fast-HD (hybridNotes() says what is
+//    missing).
 //  - every mode: frames without a fix let the search follow the odometry along the route and,
 //    after search_all_after of them, try every keyframe; the integrity monitor
 //    (integrity_monitor.h) judges every frame's pose.
@@ -70,11 +71,13 @@ struct RepeatPipelineOptions {
   double follow_odometry_distance = 5.0;
   int search_all_after = 10;
   // hybrid: the seasonal heading fix (teach_repeat/keyframe_shift_heading.h, docs/math.md §4.10)
-  // in a frame without a Fast-HD pose, μ or line fix: the current image against the stored image
-  // of the keyframe the filter's prediction is at, when that keyframe faces within
+  // in a frame without a Fast-HD pose, μ or line fix: the current image against the stored images
+  // of the keyframe the filter's prediction is at and of its experiences (the best view's fix;
+  // KeyframeShiftHeading::measureViews), when that keyframe faces within
   // localization.mu_max_reference_angle of the predicted heading. Its μ goes through the
-  // keyframe's wall model (a heading-only fix without one); an ambiguous vote only where the
-  // filter's prediction is at most half as far from the winning shift as from the runner-up. At
+  // keyframe's wall model (a heading-only fix without one, or from an experience); an ambiguous
+  // vote only where the filter's prediction is at most half as far from the winning shift as from
+  // the runner-up. At
   // most one attempt every `shift_heading_period` seconds [>= 0]: one costs about 100-150 ms at
   // 640x480 on 2 cores (bench_shift_heading), and the odometry carries the heading in between.
   bool shift_heading = true;
