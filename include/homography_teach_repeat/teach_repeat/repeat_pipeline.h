@@ -77,9 +77,9 @@ struct RepeatPipelineOptions {
   // localization.mu_max_reference_angle of the predicted heading. Its μ goes through the
   // keyframe's wall model (a heading-only fix without one, or from an experience); an ambiguous
   // vote only where the filter's prediction is at most half as far from the winning shift as from
-  // the runner-up. At
-  // most one attempt every `shift_heading_period` seconds [>= 0]: one costs about 100-150 ms at
-  // 640x480 on 2 cores (bench_shift_heading), and the odometry carries the heading in between.
+  // the runner-up. At most one attempt every `shift_heading_period` seconds [>= 0]: one costs
+  // about 100-150 ms at 640x480 on 2 cores (bench_shift_heading), and the odometry carries the
+  // heading in between.
   bool shift_heading = true;
   double shift_heading_period = 1.0;
   KeyframeShiftHeadingOptions shift_heading_options;
