@@ -1,8 +1,11 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -12,6 +15,9 @@ namespace homography_teach_repeat {
 void KeyframeShiftHeadingOptions::validate() const {
   shift.validate();
   if (cache_size < 1) throw std::invalid_argument("shift heading: cache_size must be >= 1");
+  if (!(min_texture_std >= 0.0) || !std::isfinite(min_texture_std)) {
+    throw std::invalid_argument("shift heading: min_texture_std must be >= 0");
+  }
 }
 
 KeyframeShiftHeading::KeyframeShiftHeading(const Route& route, const PinholeCamera& camera,
@@ -35,7 +41,19 @@ Expected<ShiftFeatures> KeyframeShiftHeading::describe(const cv::Mat& image) {
                                                  std::to_string(camera_.width()) + "x" +
                                                  std::to_string(camera_.height()));
   }
-  auto features = shift_heading_.describe(image);
+  const auto gray = toGray8(image);
+  if (!gray) return gray.status();
+  cv::Mat small;
+  cv::resize(*gray, small, cv::Size(std::max(1, gray->cols / 8), std::max(1, gray->rows / 8)), 0.0, 0.0, cv::INTER_AREA);
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(small, mean, deviation);
+  if (deviation[0] < options_.min_texture_std) {
+    char message[160];
+    std::snprintf(message, sizeof(message), "shift heading: the image has no texture (grey-level sigma %.1f < %.1f)",
+                  deviation[0], options_.min_texture_std);
+    return Status(StatusCode::kTooFewPoints, message);
+  }
+  auto features = shift_heading_.describe(*gray);
   if (!features) return features.status();
   undistort(&*features);
   return features;

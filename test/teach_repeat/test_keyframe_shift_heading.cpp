@@ -106,6 +106,10 @@ TEST_F(KeyframeShiftHeadingTest, CacheAndBadInput) {
   EXPECT_EQ(shift.measure(99, *current).status().code(), StatusCode::kInvalidInput);
   EXPECT_EQ(shift.describe(cv::Mat(240, 320, CV_8UC1, cv::Scalar(0))).status().code(), StatusCode::kInvalidInput);
   EXPECT_EQ(shift.describe(cv::Mat()).status().code(), StatusCode::kInvalidInput);
+  // A covered lens: refused at once, naming why.
+  const auto blank = shift.describe(cv::Mat(480, 640, CV_8UC1, cv::Scalar(90)));
+  EXPECT_EQ(blank.status().code(), StatusCode::kTooFewPoints);
+  EXPECT_NE(blank.status().message().find("no texture"), std::string::npos) << blank.status().message();
 
   const std::string image = copy + "/" + r->keyframes[3].image_file;
   std::filesystem::resize_file(image, 100);  // a copy cut short

@@ -25,6 +25,11 @@ namespace homography_teach_repeat {
 
 struct KeyframeShiftHeadingOptions {
   ShiftHeadingOptions shift;
+  // [grey levels] An image whose grey-level standard deviation (at 1/8 size) is below this has no
+  // texture to vote with (a covered lens, a blank wall): describe() refuses it at once instead of
+  // building the feature scale space (~0.1 s at 640x480; several times that in a sanitizer build,
+  // where it starved repeat_node's camera callback). >= 0.
+  double min_texture_std = 4.0;
   int cache_size = 32;  // views (keyframes and experiences) whose features are kept (>= 1; about 0.25 MB each at the defaults)
 
   void validate() const;  // throws std::invalid_argument naming the bad field
@@ -46,7 +51,8 @@ class KeyframeShiftHeading {
                        const KeyframeShiftHeadingOptions& options = KeyframeShiftHeadingOptions());
 
   // The features of a current image (grey or colour, 8-bit), undistorted. Status: kInvalidInput for
-  // an image of another size than the route's camera, or the extractor's.
+  // an image of another size than the route's camera, kTooFewPoints for one without texture
+  // (min_texture_std), or the extractor's.
   Expected<ShiftFeatures> describe(const cv::Mat& image);
   // μ [px] of the current view against keyframe `keyframe` with its variance and ambiguity.
   // Status: kInvalidInput for a keyframe out of range or an unreadable keyframe image (naming the
