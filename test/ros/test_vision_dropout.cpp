@@ -4,7 +4,7 @@
 //  - expect "finish": the camera is covered for 3.2 m; the run still finishes within 0.10 m and 2°
 //    of the start pose, the integrity was not OK while the camera saw nothing;
 //  - expect "abort": the camera is covered for good; the repeat_route goal is aborted with the
-//    reason within stop_abort_timeout (+ 3 s) of the first LOST, and the robot then stands;
+//    reason within stop_abort_timeout (+ 3 s) of the LOST that lasted, and the robot then stands;
 //  - both: no linear command while the pose is flagged LOST (beyond a 0.15 s grace for messages
 //    crossing each other).
 #include <gtest/gtest.h>
@@ -66,6 +66,12 @@ class VisionDropoutTest : public ::testing::Test {
         first_lost_ = t.time;
         std::printf("first LOST at %.2f s: %s\n", t.time, m->reason.c_str());
       }
+      // The start of the LOST run in effect (a report of another level ends a run).
+      if (m->level != Integrity::LOST) {
+        lost_since_ = -1.0;
+      } else if (lost_since_ < 0.0) {
+        lost_since_ = t.time;
+      }
     });
     state_sub_ = nh_.subscribe<std_msgs::String>("controller_node/state", 10, [this](const auto& m) { state_ = m->data; });
   }
@@ -96,6 +102,7 @@ class VisionDropoutTest : public ::testing::Test {
   Pose2D start_, truth_;
   double truth_speed_ = 0.0;
   double first_lost_ = -1.0;
+  double lost_since_ = -1.0;
   std::vector<Timed> commands_, integrity_;
   std::string state_;
   ros::Subscriber truth_sub_, command_sub_, integrity_sub_, state_sub_;
@@ -140,12 +147,17 @@ TEST_F(VisionDropoutTest, RepeatBridgesOrAbortsAsExpected) {
     EXPECT_EQ(client.getState(), actionlib::SimpleClientGoalState::ABORTED) << client.getState().toString();
     const auto result = client.getResult();
     ASSERT_TRUE(result);
-    std::printf("vision lost: aborted at %.2f s (first LOST %.2f s): %s\n", ended, first_lost_, result->reason.c_str());
+    std::printf("vision lost: aborted at %.2f s (first LOST %.2f s, LOST since %.2f s): %s\n", ended, first_lost_,
+                lost_since_, result->reason.c_str());
     EXPECT_FALSE(result->reached);
     EXPECT_NE(result->reason.find("LOST"), std::string::npos) << result->reason;
     ASSERT_GT(first_lost_, 0.0) << "never LOST";
     const double stop_abort_timeout = private_nh_.param("stop_abort_timeout", 15.0);
-    EXPECT_LT(ended - first_lost_, stop_abort_timeout + 3.0);
+    // From the LOST that lasted: a transient one before it (under the sanitizers a slow frame at the
+    // edge of the cover made "camera stopped" for a moment, 2026-12-02) lets the robot move again,
+    // and the controller's stop timer starts anew.
+    ASSERT_GT(lost_since_, 0.0) << "not LOST at the abort";
+    EXPECT_LT(ended - lost_since_, stop_abort_timeout + 3.0);
     // Afterwards the robot stands: zero commands and no motion for 2 s.
     const std::size_t before = commands_.size();
     const double until = ended + 2.0;
