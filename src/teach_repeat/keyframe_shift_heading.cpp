@@ -139,19 +139,19 @@ std::vector<ShiftHeadingAudit> auditShiftHeading(const Route& route, const Pinho
   for (int k = 0; k < n; ++k) {
     ShiftHeadingAudit a;
     a.keyframe = k;
-    const auto image = loadKeyframeImage(route, static_cast<std::size_t>(k));
-    const auto features = image ? shift.describe(*image) : Expected<ShiftFeatures>(image.status());
+    // (Cached: the next keyframe's vote finds it described.)
+    const auto features = shift.viewFeatures(k, 0);
     if (!features) {
       a.problem = features.status().message();
       audits.push_back(a);
       continue;
     }
-    for (const ImageFeatures& set : features->sets) a.features += static_cast<int>(set.keypoints.size());
+    for (const ImageFeatures& set : (*features)->sets) a.features += static_cast<int>(set.keypoints.size());
     a.neighbour = k + 1 < n ? k + 1 : k - 1;
     if (a.neighbour < 0) {
       a.problem = "the route has one keyframe";
     } else {
-      const auto fix = shift.measure(a.neighbour, *features);
+      const auto fix = shift.measure(a.neighbour, **features);
       if (fix) {
         a.support = fix->shift.support;
         a.ambiguous = fix->ambiguous;

@@ -63,13 +63,16 @@ class KeyframeShiftHeading {
   // is skipped; the status is the taught view's when no view gives a fix.
   Expected<ViewShiftFix> measureViews(int keyframe, const ShiftFeatures& current);
 
+  // The cached features of a keyframe's view (described on first use): `experience` 0 the taught
+  // view, e >= 1 the keyframe's experiences[e - 1]. Status as measure()'s for the view's image.
+  Expected<const ShiftFeatures*> viewFeatures(int keyframe, int experience);
+
   int keyframeCount() const { return static_cast<int>(route_.keyframes.size()); }
   int cachedKeyframes() const { return static_cast<int>(cache_.size()); }
 
  private:
   Status checkKeyframe(int keyframe) const;  // kInvalidInput out of range
-  // `experience`: 0 the taught view, e >= 1 the keyframe's experiences[e - 1].
-  Expected<const ShiftFeatures*> viewFeatures(int keyframe, int experience);
+
   void undistort(ShiftFeatures* features) const;
 
   Route route_;  // the keyframes' image files
