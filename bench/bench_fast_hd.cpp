@@ -148,4 +148,4 @@ BENCHMARK(BM_FastHD_FullWithRefinement)->Arg(10)->Arg(100)->Arg(500)->Unit(bench
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

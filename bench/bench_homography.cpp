@@ -48,4 +48,4 @@ BENCHMARK(BM_RobustDefault30PercentOutliers)->Arg(100)->Arg(500)->Unit(benchmark
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

@@ -88,6 +88,9 @@ void BM_RepeatLocalize(benchmark::State& state, htr::FeatureType type, htr::Repe
         180.0 / M_PI;
   }
   state.counters["inliers"] = last.inliers;
+  state.counters["extraction_ms"] = localizer->lastTiming().extraction_ms;
+  state.counters["references_ms"] = localizer->lastTiming().references_ms;
+  state.counters["references_tried"] = localizer->lastTiming().references_tried;
 }
 
 BENCHMARK_CAPTURE(BM_RepeatLocalize, FastHD_ORB, htr::FeatureType::kOrb, htr::RepeatMode::kFastHd)
@@ -185,6 +188,7 @@ void BM_RepeatFrames(benchmark::State& state, bool seasonal) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     state.SetIterationTime(seconds);
     frame_ms.push_back(1000.0 * seconds);
+    if (getenv("HTR_BENCH_VERBOSE") && result.timing) fprintf(stderr, "frame %d %.1f ms: extraction %.1f references %.1f tried %d tracked %d fixes %s\n", frame, 1000.0*seconds, result.timing->extraction_ms, result.timing->references_ms, result.timing->references_tried, int(result.timing->tracked), result.fixes.c_str());
     poses += result.pose ? 1 : 0;
     shift_fixes += result.fixes == "shift" ? 1 : 0;
     ++frame;
@@ -249,4 +253,4 @@ BENCHMARK_CAPTURE(BM_Match1500_OpenCvBruteForce, Sift, htr::FeatureType::kSift)-
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

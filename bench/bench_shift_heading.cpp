@@ -94,4 +94,4 @@ BENCHMARK(BM_ShiftHeading_PerFrame)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

@@ -103,4 +103,4 @@ BENCHMARK(BM_Ransac)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

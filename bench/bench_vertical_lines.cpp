@@ -126,4 +126,4 @@ BENCHMARK(BM_VerticalLines_WholeChain)->Apply(setSizeArgs)->Repetitions(5)->Repo
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench_main.cpp

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/heading_pairs.h"
@@ -218,6 +219,7 @@ double median(std::vector<double> values) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepFreedMemoryForReuse();  // as repeat_node: the frame times are the node's
   cli::Arguments args("evaluate_heading_pairs",
                       {{"data", ""}, {"out", ""}, {"methods", ""}, {"max-features", "1600"}, {"tolerance", "35"},
                        {"plots", "1"}},

@@ -21,6 +21,7 @@
 #include <iostream>
 #include <limits>
 
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/eval/recorded_sequence.h"
@@ -67,6 +68,7 @@ std::vector<int> framesIn(const eval::RecordedSequence& sequence, std::pair<doub
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepFreedMemoryForReuse();  // as repeat_node: the frame times are the node's
   cli::Arguments args(
       "evaluate_sequence",
       {{"kitti", ""}, {"strecha", ""}, {"bag", ""}, {"repeat-bag", ""}, {"out", ""},

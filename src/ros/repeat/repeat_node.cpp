@@ -16,6 +16,7 @@
 
 #include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/Integrity.h"
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
 #include "homography_teach_repeat/ros/repeat_parameters.h"
@@ -37,6 +38,11 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   const int opencv_threads =
       readCheckedParameter(private_nh, "opencv_threads", 0, [](int n) { return n >= 0; }, "must be >= 0");
   if (opencv_threads > 0) cv::setNumThreads(opencv_threads);
+  // Freed frame buffers stay in the process (common/process_memory.h), likewise process-wide.
+  if (readParameter(private_nh, "keep_freed_memory", true) && !keepFreedMemoryForReuse()) {
+    ROS_WARN("repeat_node: keep_freed_memory: this C library's malloc cannot be set to keep freed memory; "
+             "frames that detect features may take 2-3 times as long (docs/design.md, \"Frame buffers\")");
+  }
   const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
   const RepeatPipelineOptions options = readRepeatPipelineOptions(private_nh);
   const auto route = loadRoute(directory);
