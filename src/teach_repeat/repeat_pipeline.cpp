@@ -23,6 +23,9 @@ void RepeatPipelineOptions::validate() const {
     throw std::invalid_argument("shift_heading_period must be finite and >= 0");
   }
   shift_heading_options.validate();
+  if (!std::isfinite(fast_hd_retry_period) || fast_hd_retry_period < 0.0) {
+    throw std::invalid_argument("fast_hd_retry_period must be finite and >= 0");
+  }
   integrity.validate();
 }
 
@@ -229,7 +232,12 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
   };
   const bool points = !primaryIsMu();
   // 1. Fast-HD (the primary localizer, when the route has planes).
-  if (points) {
+  if (points && !fastHdSearchDue(stamp)) {
+    char waited[128];
+    std::snprintf(waited, sizeof(waited), "no search in this frame (the last one found no pose %.2f s ago; "
+                  "fast_hd_retry_period %.2f s)", stamp - *last_failed_search_stamp_, options_.fast_hd_retry_period);
+    note("fast_hd", Status(StatusCode::kNoConsensus, waited));
+  } else if (points) {
     bool search_all = false;
     const int tracked_before = localizer_.trackedKeyframe();
     const auto estimate = localizeWithGate(image, odom_near_image, std::nullopt, &search_all);
@@ -237,9 +245,14 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
     const Status fused = fuseHybridPose(stamp, odom_near_image, estimate, &result);
     if (fused.isOk()) {
       if (search_all) ++statistics_.found_by_search_all;
+      last_failed_search_stamp_.reset();
     } else {
       if (search_all) localizer_.setTrackedKeyframe(tracked_before);
       note("fast_hd", fused);
+      // Only a search that found nothing waits: a pose the gate or the filter refused was found
+      // (and the gate's switch counts refusals); an image refused before any search (e.g. of the
+      // wrong size) was no search.
+      if (!estimate && estimate.status().code() != StatusCode::kInvalidInput) last_failed_search_stamp_ = stamp;
     }
   }
   // 2. μ (or line landmarks): where there is no pose, or beside it (hybrid_fuse_both).
@@ -309,6 +322,13 @@ Expected<RepeatEstimate> RepeatPipeline::localizeWithGate(const cv::Mat& image, 
   if (*search_all) ++statistics_.searches_all;
   return initialized_ && !*search_all ? localizer_.localize(image, predicted, would_pass)
                                       : localizer_.initializeGlobally(image);
+}
+
+bool RepeatPipeline::fastHdSearchDue(double stamp) const {
+  if (!last_failed_search_stamp_) return true;
+  const double since = stamp - *last_failed_search_stamp_;
+  // (A stamp before the failed search's: time went back, e.g. a bag played again.)
+  return !(since >= 0.0 && since < options_.fast_hd_retry_period) || (initialized_ && searchAllNow());
 }
 
 bool RepeatPipeline::searchAllNow() const {

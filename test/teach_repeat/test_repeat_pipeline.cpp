@@ -393,6 +393,51 @@ TEST_F(RepeatPipelineTest, HybridBridgesACoveredCameraAndRecovers) {
   EXPECT_EQ(back.integrity.level, IntegrityLevel::kOk) << back.integrity.reason;
 }
 
+// hybrid, a camera that sees nothing it knows at 30 Hz: after a Fast-HD search without a pose the
+// next one waits fast_hd_retry_period (the filter carries the pose meanwhile); with 0 every frame
+// searches. Seen again, the robot is found within the period.
+TEST_F(RepeatPipelineTest, HybridRetriesAFailedSearchAfterItsPeriod) {
+  const cv::Mat covered(480, 640, CV_8UC1, cv::Scalar(90));
+  for (const double period : {0.25, 0.0}) {
+    SCOPED_TRACE(period);
+    RepeatPipelineOptions options;
+    options.localization.mode = RepeatMode::kHybrid;
+    options.search_all_after = 0;
+    options.fast_hd_retry_period = period;
+    auto pipeline = RepeatPipeline::create(route(), options);
+    ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+    double stamp = 800.0;
+    double s = 0.0;
+    auto frame = [&](bool seen) {
+      stamp += 1.0 / 30.0;
+      s += 0.01;
+      const PlanarPose camera_pose = pathCamera(s);
+      EXPECT_TRUE(pipeline->addOdometry(stamp, cameraAxesToRep103(camera_pose)).isOk());
+      return pipeline->processFrame(stamp, seen ? wall_->imageAt(camera_pose) : covered, camera());
+    };
+    ASSERT_EQ(frame(true).fixes.substr(0, 7), "fast_hd");
+    int searched = 0;
+    for (int i = 0; i < 15; ++i) {  // 0.5 s
+      const RepeatFrameResult blind = frame(false);
+      EXPECT_TRUE(blind.fixes.empty());
+      ASSERT_TRUE(blind.pose) << "the filter carries the pose";
+      if (blind.timing) {
+        ++searched;
+      } else {
+        EXPECT_NE(blind.status.message().find("fast_hd_retry_period"), std::string::npos) << blind.status.toString();
+      }
+    }
+    if (period > 0.0) {
+      EXPECT_EQ(searched, 2) << "frames 1 and 9 (0.27 s later)";
+    } else {
+      EXPECT_EQ(searched, 15);
+    }
+    int frames_to_fix = 1;
+    while (frame(true).fixes.substr(0, 7) != "fast_hd" && frames_to_fix < 30) ++frames_to_fix;
+    EXPECT_LE(frames_to_fix, 8) << "found again within the period (0.25 s: 8 frames)";
+  }
+}
+
 // hybrid, the odometry jumps 0.5 m (a kidnapped robot, seen from the other side): the Fast-HD
 // poses are refused by the odometry gate and the integrity says DEGRADED at once; when
 // gate_switch_after refused poses agree with each other the filter starts again from them.

@@ -83,6 +83,15 @@ struct RepeatPipelineOptions {
   bool shift_heading = true;
   double shift_heading_period = 1.0;
   KeyframeShiftHeadingOptions shift_heading_options;
+  // hybrid with planes: after a frame whose Fast-HD search found no pose (it detected features and
+  // tried the keyframes near the robot, or every keyframe, without an estimate; a pose the odometry
+  // gate or the filter refused does not count), the next search waits this long [s, >= 0; 0: every
+  // frame]; a whole-route search that is due (search_all_after) does not wait. The filter
+  // carries the pose on odometry, μ and the seasonal fix in between. A search costs a feature
+  // detection and several keyframes' matching (50-90 ms at 640x480 on 2 cores), which a place that
+  // matches nothing any more would otherwise spend on every frame (docs/nodes/repeat_node.md,
+  // "Frame time").
+  double fast_hd_retry_period = 0.25;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -181,6 +190,8 @@ class RepeatPipeline {
   // fast_hd/classic, a frame without a pose: the tracked keyframe follows the odometry.
   void followOdometry(const Expected<Pose2D>& odom);
   bool searchAllNow() const;
+  // hybrid: whether this frame searches for a Fast-HD pose (fast_hd_retry_period).
+  bool fastHdSearchDue(double stamp) const;
   // The primary localizer on the image, each reference's pose vetted by the odometry gate; the
   // whole route when searchAllNow() (then `search_all` is set).
   Expected<RepeatEstimate> localizeWithGate(const cv::Mat& image, const Expected<Pose2D>& odom_near_image,
@@ -200,6 +211,7 @@ class RepeatPipeline {
   std::optional<Pose2D> last_fix_odometry_;
   std::optional<KeyframeShiftHeading> shift_heading_;  // hybrid with shift_heading
   std::optional<double> last_shift_heading_stamp_;    // the last attempt's
+  std::optional<double> last_failed_search_stamp_;    // hybrid: the last Fast-HD search without a pose
   RepeatStatistics statistics_;
 };
 

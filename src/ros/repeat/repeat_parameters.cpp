@@ -69,6 +69,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     o.follow_odometry_distance = readParameter(nh, "follow_odometry_distance", o.follow_odometry_distance);
     o.search_all_after = readParameter(nh, "search_all_after", o.search_all_after);
     o.hybrid_fuse_both = readParameter(nh, "hybrid_fuse_both", o.hybrid_fuse_both);
+    o.fast_hd_retry_period = readParameter(nh, "fast_hd_retry_period", o.fast_hd_retry_period);
     o.hybrid_skip_turn_keyframes = readParameter(nh, "hybrid_skip_turn_keyframes", o.hybrid_skip_turn_keyframes);
     o.shift_heading = readParameter(nh, "shift_heading", o.shift_heading);
     o.shift_heading_period = readParameter(nh, "shift_heading_period", o.shift_heading_period);
