@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/eval/heading_pairs.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/features/feature_extractor.h"

@@ -20,9 +20,10 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <sstream>
 
-#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/eval/recorded_sequence.h"
 #include "homography_teach_repeat/eval/sequence_evaluation.h"
@@ -64,6 +65,19 @@ std::vector<int> framesIn(const eval::RecordedSequence& sequence, std::pair<doub
   return frames;
 }
 
+
+// A JSON number with `digits` decimals, "null" for null.
+std::string formatted(const nlohmann::json& value, int digits) {
+  if (!value.is_number()) return "null";
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(digits) << value.get<double>();
+  return text.str();
+}
+
+// A JSON fraction as a percentage with one decimal ("no NEES" for null).
+std::string percent(const nlohmann::json& fraction) {
+  return fraction.is_number() ? formatted(100.0 * fraction.get<double>(), 1) + " %" : "no NEES";
+}
 
 }  // namespace
 
@@ -247,14 +261,19 @@ int main(int argc, char** argv) {
     if (!file) args.fail("cannot write '" + json_path + "'");
   }
   const auto& s = document["summary"];
-  std::cout << std::fixed << std::setprecision(3) << "evaluate_sequence: " << s["localized"] << " of "
-            << s["frames"] << " frames localized; " << evaluation->odometry_note << "\n";
+  std::cout << "evaluate_sequence: " << s["localized"] << " of " << s["frames"] << " frames localized; "
+            << evaluation->odometry_note << "\n";
+  std::string segment_nees, segment_beyond;
   for (const auto& segment : document["segments"]) {
     std::cout << "  " << segment["name"].get<std::string>() << " (frames " << segment["first_frame"] << "-"
               << segment["last_frame"] << "): " << segment["localized"] << "/" << segment["frames"]
-              << " localized, median " << segment["position_error_median_m"] << " m, p95 "
-              << segment["position_error_p95_m"] << " m, heading median " << segment["heading_error_median_deg"]
-              << " deg, NEES mean " << segment["nees_mean"] << "\n";
+              << " localized, median " << formatted(segment["position_error_median_m"], 3) << " m, p95 "
+              << formatted(segment["position_error_p95_m"], 3) << " m, heading median "
+              << formatted(segment["heading_error_median_deg"], 3) << " deg, NEES mean "
+              << formatted(segment["nees_mean"], 1) << " (" << percent(segment["nees_fraction_beyond_95"])
+              << " beyond the 95 % bound)\n";
+    segment_nees += (segment_nees.empty() ? "" : ",") + formatted(segment["nees_mean"], 1);
+    segment_beyond += (segment_beyond.empty() ? "" : ",") + formatted(segment["nees_fraction_beyond_95"], 2);
   }
   for (const auto& u : evaluation->unreadable_frames) {
     std::cerr << "evaluate_sequence: " << u.phase << " frame " << u.frame << " skipped: " << u.reason << "\n";
@@ -262,8 +281,16 @@ int main(int argc, char** argv) {
   if (!evaluation->unreadable_frames.empty()) {
     std::cout << "  skipped " << evaluation->unreadable_frames.size() << " frame(s) whose image could not be read\n";
   }
-  std::cout << "  failures: " << s["failures"].dump() << "; time per frame median " << s["time_per_frame_median_ms"]
-            << " ms\nwrote " << json_path << "\n";
+  std::cout << "  failures: " << s["failures"].dump() << "; time per frame median "
+            << formatted(s["time_per_frame_median_ms"], 1) << " ms\nwrote " << json_path << "\n";
+  // One line per run for a log to be searched (grep '^evaluate_sequence summary:'); "null": none.
+  std::cout << "evaluate_sequence summary: mode=" << args.text("mode") << " localized=" << s["localized"] << "/"
+            << s["frames"] << " position_median_m=" << formatted(s["position_error_median_m"], 4)
+            << " heading_median_deg=" << formatted(s["heading_error_median_deg"], 3)
+            << " nees_mean=" << formatted(s["nees_mean"], 2)
+            << " nees_beyond_95=" << formatted(s["nees_fraction_beyond_95"], 3)
+            << " segment_nees_mean=" << segment_nees << " segment_nees_beyond_95=" << segment_beyond
+            << " frame_ms_median=" << formatted(s["time_per_frame_median_ms"], 1) << "\n";
   if (args.integer("plots") != 0) eval::drawPlots(json_path, "evaluate_sequence");
   return 0;
 }
