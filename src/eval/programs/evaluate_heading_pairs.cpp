@@ -30,6 +30,7 @@
 #include "homography_teach_repeat/features/vertical_lines.h"
 #include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
+#include "homography_teach_repeat/mu/line_shift.h"
 #include "homography_teach_repeat/mu/shift_heading.h"
 #include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 
@@ -47,7 +48,7 @@ double msSince(Clock::time_point start) {
 // kChain: the repeat's order (hybrid mode) as far as two images show it: the registration where it
 // has at least RepeatOptions::min_inliers inliers (the repeat would then try its Fast-HD pose), the
 // seasonal shift vote otherwise (mu/shift_heading.h).
-enum class Estimator { kHomography, kVote, kLines, kChain };
+enum class Estimator { kHomography, kVote, kLines, kLineVote, kChain };
 
 struct Method {
   std::string name;
@@ -83,6 +84,8 @@ std::vector<Method> allMethods(int max_features) {
       {"upright_akaze_sift_brief_vote", "upright AKAZE, upright SIFT and BRIEF, each mutual nearest, one shift vote",
        Estimator::kVote, {upright_akaze, upright_sift, brief}, {}},
       {"mu_lines", "vertical lines, 1D homography (LMedS): mu", Estimator::kLines, {}, {}},
+      {"mu_line_vote", "vertical lines (seasonal extraction), BRIEF along each line, mutual nearest, shift vote",
+       Estimator::kLineVote, {}, {}},
       {"repeat_chain",
        "the repeat's order (hybrid): the homography where it has >= min_inliers (" +
            std::to_string(RepeatOptions().min_inliers) + ") inliers, the shift_heading vote otherwise",
@@ -117,6 +120,7 @@ struct Extracted {
   std::vector<ImageFeatures> features;  // kHomography: the one feature set
   std::optional<ShiftFeatures> shift;   // kVote
   std::optional<std::vector<VerticalLine>> lines;
+  std::optional<LineShiftFeatures> line_points;  // kLineVote
   std::string problem;
   double time_ms = 0.0;
 };
@@ -132,8 +136,10 @@ struct Extractors {
     if (method.estimator == Estimator::kHomography || method.estimator == Estimator::kChain) {
       points.emplace(method.features.front());
     }
+    if (method.estimator == Estimator::kLineVote) line_shift.emplace();
   }
   std::optional<ShiftHeading> heading;
+  std::optional<LineShift> line_shift;
   std::optional<FeatureExtractor> points;
   VerticalLineExtractor lines;
 };
@@ -144,6 +150,15 @@ Extracted extract(const Method& method, Extractors& extractors, const cv::Mat& i
   if (method.estimator == Estimator::kLines) {
     auto lines = extractors.lines.extract(image);
     if (lines) e.lines = std::move(*lines); else e.problem = lines.status().toString();
+  }
+  if (extractors.line_shift) {
+    auto described = extractors.line_shift->describe(image);
+    if (described) {
+      e.lines = described->lines;
+      e.line_points = std::move(*described);
+    } else {
+      e.problem = described.status().toString();
+    }
   }
   if (extractors.heading && e.problem.empty()) {
     auto shift = extractors.heading->describe(image);
@@ -157,7 +172,7 @@ Extracted extract(const Method& method, Extractors& extractors, const cv::Mat& i
   return e;
 }
 
-Outcome measure(const Method& method, const ShiftHeading* heading, const Extracted& reference,
+Outcome measure(const Method& method, const Extractors& extractors, const Extracted& reference,
                 const Extracted& current, const cv::Size& size) {
   Outcome outcome;
   if (!reference.problem.empty() || !current.problem.empty()) {
@@ -197,12 +212,15 @@ Outcome measure(const Method& method, const ShiftHeading* heading, const Extract
     }
   }
   // The benchmark's images have no calibration: the shift at the image's middle.
-  const auto fix = heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
+  const auto fix = method.estimator == Estimator::kLineVote
+                       ? extractors.line_shift->measure(*reference.line_points, *current.line_points, 0.5 * size.width)
+                       : extractors.heading->measure(*reference.shift, *current.shift, 0.5 * size.width);
   if (fix) {
     outcome.estimate_px = fix->mu;
     outcome.support = fix->shift.support;
     outcome.runner_up_support = fix->shift.runner_up_support;
     outcome.ambiguous = fix->ambiguous;
+    if (method.estimator == Estimator::kLineVote) outcome.line_matches = fix->matches;  // line points
   } else {
     outcome.status = fix.status().toString();
   }
@@ -230,8 +248,9 @@ int main(int argc, char** argv) {
                       "  [--tolerance PX] (35: the benchmark's) [--plots 0|1]\n"
                       "  methods: homography, sift_vote, upright_sift_vote, akaze_vote, upright_akaze_vote,\n"
                       "  upright_orb_vote, brief_vote, shift_heading (the repeat's seasonal fix: upright AKAZE + BRIEF),\n"
-                      "  upright_akaze_sift_brief_vote, mu_lines, repeat_chain (the repeat's order: the homography\n"
-                      "  where it has min_inliers, the shift_heading vote otherwise)");
+                      "  upright_akaze_sift_brief_vote, mu_lines (the mu mode's chain), mu_line_vote (vertical lines\n"
+                      "  alone, BRIEF along each, one shift vote: mu/line_shift.h), repeat_chain (the repeat's order:\n"
+                      "  the homography where it has min_inliers, the shift_heading vote otherwise)");
   args.parse(argc, argv);
   if (args.text("data").empty() || args.text("out").empty()) args.fail("--data and --out are required");
   const int max_features = args.integer("max-features");
@@ -283,7 +302,6 @@ int main(int argc, char** argv) {
   }
   for (const Method& method : methods) {
     Extractors extractors(method);
-    const ShiftHeading* vote = extractors.heading ? &*extractors.heading : nullptr;
     std::map<std::string, Extracted> extracted;
     double extract_ms = 0.0;
     double lines_total = 0.0;
@@ -299,8 +317,8 @@ int main(int argc, char** argv) {
     std::vector<double> errors;
     for (std::size_t i = 0; i < pairs->size(); ++i) {
       const auto& pair = (*pairs)[i];
-      const Outcome outcome = measure(method, vote, extracted[pair.reference_image], extracted[pair.current_image],
-                                      images[pair.reference_image].size());
+      const Outcome outcome = measure(method, extractors, extracted[pair.reference_image],
+                                      extracted[pair.current_image], images[pair.reference_image].size());
       pair_ms += outcome.time_ms;
       const bool failed = eval::headingPairFailed(outcome.estimate_px, pair.true_shift_px, tolerance);
       failures += failed ? 1 : 0;
@@ -323,7 +341,7 @@ int main(int argc, char** argv) {
         wrong_unflagged += failed && !outcome.ambiguous ? 1 : 0;
       }
       if (outcome.line_matches >= 0) {
-        result["line_matches"] = outcome.line_matches;
+        result[method.estimator == Estimator::kLineVote ? "line_point_matches" : "line_matches"] = outcome.line_matches;
         line_matches_total += outcome.line_matches;
       }
       per_pair[i]["methods"][method.name] = result;
@@ -337,17 +355,19 @@ int main(int argc, char** argv) {
                               {"median_abs_error_px", errors.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(median(errors))},
                               {"extract_ms_per_image", extract_ms_per_image},
                               {"time_per_pair_ms", 2.0 * extract_ms_per_image + pair_ms / n}};
-    if (method.estimator == Estimator::kVote || method.estimator == Estimator::kChain) {
+    if (method.estimator == Estimator::kVote || method.estimator == Estimator::kChain ||
+        method.estimator == Estimator::kLineVote) {
       // Estimates flagged ambiguous (ShiftHeadingOptions::ambiguity_ratio) that were right / wrong,
       // and wrong estimates that were not flagged (the ones a repeat would take unquestioned).
       summary["ambiguous_right"] = ambiguous_right;
       summary["ambiguous_wrong"] = ambiguous_wrong;
       summary["wrong_unflagged"] = wrong_unflagged;
     }
-    if (method.estimator == Estimator::kLines) {
+    if (method.estimator == Estimator::kLines || method.estimator == Estimator::kLineVote) {
       summary["lines_per_image"] = lines_total / static_cast<double>(images.size());
-      summary["line_matches_per_pair"] = line_matches_total / n;
     }
+    if (method.estimator == Estimator::kLines) summary["line_matches_per_pair"] = line_matches_total / n;
+    if (method.estimator == Estimator::kLineVote) summary["line_point_matches_per_pair"] = line_matches_total / n;
     doc["methods"][method.name] = summary;
     std::printf("%-20s %5.1f %% failed (%d of %zu; %d without an estimate), %.0f ms per pair\n", method.name.c_str(),
                 100.0 * failures / n, failures, pairs->size(), no_estimate, summary["time_per_pair_ms"].get<double>());
