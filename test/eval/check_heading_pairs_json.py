@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Checks evaluate_heading_pairs' OUT/heading_pairs.json: every method scored on every pair (estimate,
 error, status), the summary fields, and optional bounds:
-  check_heading_pairs_json.py FILE [--max-error-rate METHOD=FRACTION ...] [--plots]
+  check_heading_pairs_json.py FILE [--max-error-rate METHOD=FRACTION ...] [--max-no-estimate METHOD=FRACTION ...]
+                               [--plots]
 Exit 1 with the reason when a check fails."""
 import argparse
 import json
@@ -13,6 +14,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("json")
     parser.add_argument("--max-error-rate", action="append", default=[])
+    parser.add_argument("--max-no-estimate", action="append", default=[], help="the share of pairs without one")
     parser.add_argument("--plots", action="store_true", help="the PNG beside the JSON must exist")
     args = parser.parse_args()
     with open(args.json) as f:
@@ -39,6 +41,13 @@ def main():
             problems.append("no method %s" % name)
         elif methods[name]["error_rate"] > float(value):
             problems.append("%s: error rate %.4f above %s" % (name, methods[name]["error_rate"], value))
+    for bound in args.max_no_estimate:
+        name, value = bound.split("=")
+        if name not in methods:
+            problems.append("no method %s" % name)
+        elif methods[name]["no_estimate"] > float(value) * methods[name]["pairs"]:
+            problems.append("%s: %d of %d pairs without an estimate, above %s" % (
+                name, methods[name]["no_estimate"], methods[name]["pairs"], value))
     if args.plots and not os.path.exists(os.path.splitext(args.json)[0] + ".png"):
         problems.append("no plot beside the JSON")
     for name, m in methods.items():
