@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -33,6 +34,9 @@ void VerticalLineOptions::validate() const {
   if (min_length_px < 3) throw std::invalid_argument("vertical lines: min_length_px must be >= 3");
   // 1020 = 4 · 255, the largest |gx| of the 3x3 Sobel on an 8-bit image: a higher threshold finds
   // nothing (and would not fit the int threshold; found by fuzz_vertical_lines).
+  if (!(min_gradient_fraction >= 0.0 && min_gradient_fraction <= 100.0)) {
+    throw std::invalid_argument("vertical lines: min_gradient_fraction must be in [0, 100]");
+  }
   if (!(min_gradient > 0.0 && min_gradient <= 1020.0)) {
     throw std::invalid_argument("vertical lines: min_gradient must be in (0, 1020]");
   }
@@ -70,7 +74,10 @@ Expected<std::vector<VerticalLine>> VerticalLineExtractor::extract(const cv::Mat
   cv::Sobel(gray_, gx_, CV_16S, 1, 0, 3);
   cv::Sobel(gray_, gy_, CV_16S, 0, 1, 3);
   const double tan_tolerance = std::tan(options_.max_angle_deg * kDegToRad);
-  const int threshold = static_cast<int>(std::ceil(options_.min_gradient));
+  // The image's own contrast: a share of its mean |gx| (min_gradient the floor).
+  const double relative =
+      options_.min_gradient_fraction > 0.0 ? options_.min_gradient_fraction * cv::mean(cv::abs(gx_))[0] : 0.0;
+  const int threshold = static_cast<int>(std::ceil(std::max(options_.min_gradient, relative)));
 
   std::vector<Chain> chains;
   // Index of the chain whose last point is in column c (per polarity), or -1.

@@ -53,14 +53,33 @@ Expected<ShiftFeatures> ShiftHeading::describe(const cv::Mat& image) {
   return described;
 }
 
+Status requireSameSize(const cv::Size& reference, const cv::Size& current) {
+  if (reference == current) return Status::ok();
+  return Status(StatusCode::kInvalidInput, "the views differ in size (" + std::to_string(reference.width) + "x" +
+                                               std::to_string(reference.height) + " and " +
+                                               std::to_string(current.width) + "x" + std::to_string(current.height) +
+                                               ")");
+}
+
+Expected<ShiftHeadingFix> shiftFixFromMatches(const PointMatches& matches, const cv::Size& size,
+                                              const ImageShiftOptions& vote, double min_variance_px2,
+                                              double ambiguity_ratio, double principal_x,
+                                              std::optional<double> focal_px) {
+  const auto shift = estimateImageShift(matches, size.width, vote, principal_x, focal_px);
+  if (!shift) return shift.status();
+  ShiftHeadingFix fix;
+  fix.mu = shift->shift_px;
+  fix.variance = shift->sigma_px * shift->sigma_px + min_variance_px2;
+  fix.shift = *shift;
+  fix.matches = static_cast<int>(matches.size());
+  fix.ambiguous = shift->runner_up_support >= ambiguity_ratio * shift->support;
+  return fix;
+}
+
 Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, const ShiftFeatures& current,
                                                 double principal_x, std::optional<double> focal_px) const {
-  if (reference.image_size != current.image_size) {
-    return Status(StatusCode::kInvalidInput, "the views differ in size (" + std::to_string(reference.image_size.width) +
-                                                 "x" + std::to_string(reference.image_size.height) + " and " +
-                                                 std::to_string(current.image_size.width) + "x" +
-                                                 std::to_string(current.image_size.height) + ")");
-  }
+  const Status sizes = requireSameSize(reference.image_size, current.image_size);
+  if (!sizes.isOk()) return sizes;
   if (reference.sets.size() != extractors_.size() || current.sets.size() != extractors_.size()) {
     return Status(StatusCode::kInvalidInput, "the views were not described with these feature types");
   }
@@ -73,15 +92,8 @@ Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, 
     const PointMatches these = toPointMatches(reference.sets[i], current.sets[i], *matches);
     all.insert(all.end(), these.begin(), these.end());
   }
-  const auto shift = estimateImageShift(all, reference.image_size.width, options_.vote, principal_x, focal_px);
-  if (!shift) return shift.status();
-  ShiftHeadingFix fix;
-  fix.mu = shift->shift_px;
-  fix.variance = shift->sigma_px * shift->sigma_px + options_.min_variance_px2;
-  fix.shift = *shift;
-  fix.matches = static_cast<int>(all.size());
-  fix.ambiguous = shift->runner_up_support >= options_.ambiguity_ratio * shift->support;
-  return fix;
+  return shiftFixFromMatches(all, reference.image_size, options_.vote, options_.min_variance_px2,
+                             options_.ambiguity_ratio, principal_x, focal_px);
 }
 
 }  // namespace homography_teach_repeat

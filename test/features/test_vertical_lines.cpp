@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "homography_teach_repeat/features/vertical_lines.h"
 
@@ -121,6 +122,29 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(std::make_pair(std::string("single_parameter_radial"), std::vector<double>{-0.08}),
                       std::make_pair(std::string("plumb_bob"),
                                      std::vector<double>{-0.08, 0.01, 0.0005, -0.0003, 0.0})));
+
+// min_gradient_fraction: the threshold follows the image's contrast. Strong edges (60 grey) and weak
+// ones (12 grey) of one view; the same view at a fifth of the contrast (dusk) keeps the strong
+// edges, and a relative threshold keeps them where an absolute one of the same effect loses them.
+TEST(VerticalLines, ARelativeThresholdFollowsTheImagesContrast) {
+  const cv::Mat bright = bands({100.5, 200.5, 300.5, 400.5, 500.5}, {60, 120, 132, 192, 204, 144});
+  cv::Mat dim;
+  bright.convertTo(dim, -1, 0.2, 100.0);
+  VerticalLineOptions absolute;
+  absolute.min_gradient = 100.0;  // the strong edges' |gx| is about 4 x 60 = 240, the weak ones' 48
+  VerticalLineOptions relative;
+  relative.min_gradient = 4.0;
+  relative.min_gradient_fraction = 20.0;  // a mostly flat image: mean |gx| about 2.4 bright, 0.5 dim
+  const auto count = [](const VerticalLineOptions& options, const cv::Mat& image) {
+    return VerticalLineExtractor(options).extract(image)->size();
+  };
+  EXPECT_EQ(count(absolute, bright), 3u);
+  EXPECT_EQ(count(absolute, dim), 0u) << "a fifth of the contrast is below the absolute threshold";
+  EXPECT_EQ(count(relative, bright), 3u);
+  EXPECT_EQ(count(relative, dim), 3u) << "the relative threshold falls with the contrast";
+  relative.min_gradient_fraction = -1.0;
+  EXPECT_THROW(VerticalLineExtractor{relative}, std::invalid_argument);
+}
 
 TEST(VerticalLines, NoVerticalStructureGivesNoLines) {
   VerticalLineExtractor extractor;

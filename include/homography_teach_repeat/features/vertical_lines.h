@@ -6,7 +6,8 @@
 // A dedicated extractor instead of a general segment detector (cv::LineSegmentDetector takes
 // ~28 ms on 640x480 here): only vertical structure matters, so
 //  1. the horizontal and vertical gradients come from cv::Sobel (3x3, 16-bit, vectorised);
-//  2. per row, edge pixels are the local maxima of |gx| along x above `min_gradient` whose
+//  2. per row, edge pixels are the local maxima of |gx| along x above `min_gradient` (or a share
+//     of the image's mean |gx|, `min_gradient_fraction`, where that is higher) whose
 //     gradient direction is within `max_angle_deg` of horizontal (|gy| <= tan(tol) |gx|), with
 //     the sub-pixel x from a parabola through |gx| at x-1, x, x+1;
 //  3. edge pixels are linked down the columns: a pixel continues the chain of the same polarity
@@ -49,6 +50,9 @@ struct VerticalLineOptions {
   double max_angle_deg = 5.0;    // angular tolerance around vertical
   int min_length_px = 25;        // shortest line kept [rows]
   double min_gradient = 40.0;    // |gx| threshold (3x3 Sobel on 8-bit: a step of 10 grey ~ 40)
+  // Relative to the image's contrast: the threshold is max(min_gradient, this x the image's mean
+  // |gx|), so a dim or hazy view keeps its lines and a sharp one is not flooded [0: min_gradient alone].
+  double min_gradient_fraction = 0.0;
   double max_step_px = 1.0;      // largest x jump between linked rows
   int max_row_gap = 1;           // rows without an edge pixel that a chain may bridge
   double max_fit_rms_px = 0.7;   // largest RMS residual of the line fit

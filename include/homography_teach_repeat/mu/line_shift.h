@@ -5,17 +5,18 @@
 // The μ mode's line matching (features/vertical_line_matcher.h) compares lines by their sides'
 // brightness and polarity; between seasons neither holds, and its extractor's absolute
 // thresholds find few lines in real photographs (7 per GRIEF michigan image). Here:
-//  - the lines are extracted with tolerances for real edges (a gradient of 10, links across gaps
-//    and a minimum length that scale with the image height, a fit RMS of 1.5 px): the short, rough
-//    verticals of trunks, posts and frames, about 150 per 1024x384 image;
+//  - the lines are extracted with tolerances for real edges (a gradient threshold relative to the
+//    image's contrast, links across gaps and a minimum length that scale with the image height, a
+//    fit RMS of 1.5 px): the short, rough verticals of trunks, posts and frames, about 150 per
+//    1024x384 image;
 //  - each line is described by BRIEF (features/brief.h: intensity comparisons, upright) at points
 //    every `point_spacing_px` along it: a line descriptor that survives light and seasons
 //    and does not depend on polarity;
 //  - the points are matched by mutual nearest neighbours and vote with their line's x (undistorted,
 //    at the principal point's row) on the shift (mu/image_shift.h, the vote ShiftHeading uses).
 // A line seen in both views moves by the shift; a wrong match scatters. On GRIEF michigan /
-// planetarium (330 pairs each, 35 px tolerance) it fails 3.9 % / 10.6 % of the pairs, with an
-// estimate on every michigan pair.
+// planetarium (330 pairs each, 35 px tolerance) it fails 3.3 % / 10.9 % of the pairs, with an
+// estimate on every michigan pair (docs/evaluation.md).
 #pragma once
 
 #include <opencv2/core.hpp>

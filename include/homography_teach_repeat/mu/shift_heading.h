@@ -54,6 +54,17 @@ struct ShiftHeadingFix {
   bool pickedBy(double predicted_mu) const;
 };
 
+// The vote of `matches` (reference -> current pixels of two views `size` wide and high) as a fix:
+// μ the vote's shift at `principal_x` (on angles with `focal_px`, estimateImageShift), its variance
+// the vote's standard error squared plus `min_variance_px2`, ambiguous from `ambiguity_ratio`.
+// The vote's status when it has none. ShiftHeading and LineShift (line_shift.h) both end here.
+Expected<ShiftHeadingFix> shiftFixFromMatches(const PointMatches& matches, const cv::Size& size,
+                                              const ImageShiftOptions& vote, double min_variance_px2,
+                                              double ambiguity_ratio, double principal_x,
+                                              std::optional<double> focal_px);
+// kInvalidInput naming both sizes when two views differ in size, OK otherwise.
+Status requireSameSize(const cv::Size& reference, const cv::Size& current);
+
 class ShiftHeading {
  public:
   // Throws std::invalid_argument on invalid options (an unavailable feature type included).
