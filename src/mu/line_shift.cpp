@@ -93,7 +93,8 @@ Expected<ShiftHeadingFix> LineShift::measure(const LineShiftFeatures& reference,
   const auto matches = matchFeatures(reference.points, current.points, mutual_nearest);
   if (!matches) return matches.status();
   return shiftFixFromMatches(toPointMatches(reference.points, current.points, *matches), reference.image_size,
-                             options_.vote, options_.min_variance_px2, options_.ambiguity_ratio, principal_x, focal_px);
+                             options_.vote, {options_.min_variance_px2, options_.ambiguity_ratio}, principal_x,
+                             focal_px);
 }
 
 }  // namespace homography_teach_repeat

@@ -62,17 +62,16 @@ Status requireSameSize(const cv::Size& reference, const cv::Size& current) {
 }
 
 Expected<ShiftHeadingFix> shiftFixFromMatches(const PointMatches& matches, const cv::Size& size,
-                                              const ImageShiftOptions& vote, double min_variance_px2,
-                                              double ambiguity_ratio, double principal_x,
-                                              std::optional<double> focal_px) {
+                                              const ImageShiftOptions& vote, const ShiftFixRules& rules,
+                                              double principal_x, std::optional<double> focal_px) {
   const auto shift = estimateImageShift(matches, size.width, vote, principal_x, focal_px);
   if (!shift) return shift.status();
   ShiftHeadingFix fix;
   fix.mu = shift->shift_px;
-  fix.variance = shift->sigma_px * shift->sigma_px + min_variance_px2;
+  fix.variance = shift->sigma_px * shift->sigma_px + rules.min_variance_px2;
   fix.shift = *shift;
   fix.matches = static_cast<int>(matches.size());
-  fix.ambiguous = shift->runner_up_support >= ambiguity_ratio * shift->support;
+  fix.ambiguous = shift->runner_up_support >= rules.ambiguity_ratio * shift->support;
   return fix;
 }
 
@@ -92,8 +91,8 @@ Expected<ShiftHeadingFix> ShiftHeading::measure(const ShiftFeatures& reference, 
     const PointMatches these = toPointMatches(reference.sets[i], current.sets[i], *matches);
     all.insert(all.end(), these.begin(), these.end());
   }
-  return shiftFixFromMatches(all, reference.image_size, options_.vote, options_.min_variance_px2,
-                             options_.ambiguity_ratio, principal_x, focal_px);
+  return shiftFixFromMatches(all, reference.image_size, options_.vote,
+                             {options_.min_variance_px2, options_.ambiguity_ratio}, principal_x, focal_px);
 }
 
 }  // namespace homography_teach_repeat

@@ -54,14 +54,20 @@ struct ShiftHeadingFix {
   bool pickedBy(double predicted_mu) const;
 };
 
+// What makes a vote a fix: the floor of μ's variance [px²] and the runner-up's share of the
+// winner's support from which it is ambiguous (ShiftHeadingOptions', LineShiftOptions').
+struct ShiftFixRules {
+  double min_variance_px2 = 4.0;
+  double ambiguity_ratio = 0.6;
+};
+
 // The vote of `matches` (reference -> current pixels of two views `size` wide and high) as a fix:
 // μ the vote's shift at `principal_x` (on angles with `focal_px`, estimateImageShift), its variance
-// the vote's standard error squared plus `min_variance_px2`, ambiguous from `ambiguity_ratio`.
+// the vote's standard error squared plus rules.min_variance_px2, ambiguous from rules.ambiguity_ratio.
 // The vote's status when it has none. ShiftHeading and LineShift (line_shift.h) both end here.
 Expected<ShiftHeadingFix> shiftFixFromMatches(const PointMatches& matches, const cv::Size& size,
-                                              const ImageShiftOptions& vote, double min_variance_px2,
-                                              double ambiguity_ratio, double principal_x,
-                                              std::optional<double> focal_px);
+                                              const ImageShiftOptions& vote, const ShiftFixRules& rules,
+                                              double principal_x, std::optional<double> focal_px);
 // kInvalidInput naming both sizes when two views differ in size, OK otherwise.
 Status requireSameSize(const cv::Size& reference, const cv::Size& current);
 
