@@ -29,9 +29,7 @@ cv::Mat barScene(unsigned seed, int bars = 40) {
 
 // A 640 x 480 view, the camera turned so the scene moves `shift` px to the right, the light changed.
 cv::Mat view(const cv::Mat& scene, int shift, double gain = 1.0, double offset = 0.0) {
-  cv::Mat image = scene(cv::Rect(130 - shift, 0, 640, 480)).clone();
-  if (gain != 1.0 || offset != 0.0) image.convertTo(image, -1, gain, offset);
-  return image;
+  return test_support::turnedView(scene, 130, shift, gain, offset);
 }
 
 }  // namespace

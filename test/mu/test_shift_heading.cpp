@@ -14,9 +14,7 @@ namespace {
 // A 640 x 480 view of a textured scene, the camera turned so the scene moves `shift` px to the
 // right, the light changed by `gain` and `offset`.
 cv::Mat view(const cv::Mat& scene, int shift, double gain = 1.0, double offset = 0.0) {
-  cv::Mat image = scene(cv::Rect(100 - shift, 0, 640, 480)).clone();
-  if (gain != 1.0 || offset != 0.0) image.convertTo(image, -1, gain, offset);
-  return image;
+  return test_support::turnedView(scene, 100, shift, gain, offset);
 }
 
 }  // namespace

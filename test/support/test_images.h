@@ -30,6 +30,14 @@ inline cv::Mat makeTexture(int width, int height, unsigned seed) {
   return texture;
 }
 
+// A 640 x 480 view of a wider `scene` whose left edge is at column `left` when `shift` is 0: the
+// camera turned so the scene moves `shift` px to the right, the light changed by `gain` and `offset`.
+inline cv::Mat turnedView(const cv::Mat& scene, int left, int shift, double gain = 1.0, double offset = 0.0) {
+  cv::Mat image = scene(cv::Rect(left - shift, 0, 640, 480)).clone();
+  if (gain != 1.0 || offset != 0.0) image.convertTo(image, -1, gain, offset);
+  return image;
+}
+
 inline cv::Mat toCv(const Eigen::Matrix3d& H) {
   cv::Mat m(3, 3, CV_64F);
   for (int r = 0; r < 3; ++r)
