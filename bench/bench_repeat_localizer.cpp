@@ -188,7 +188,6 @@ void BM_RepeatFrames(benchmark::State& state, bool seasonal) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     state.SetIterationTime(seconds);
     frame_ms.push_back(1000.0 * seconds);
-    if (getenv("HTR_BENCH_VERBOSE") && result.timing) fprintf(stderr, "frame %d %.1f ms: extraction %.1f references %.1f tried %d tracked %d fixes %s\n", frame, 1000.0*seconds, result.timing->extraction_ms, result.timing->references_ms, result.timing->references_tried, int(result.timing->tracked), result.fixes.c_str());
     poses += result.pose ? 1 : 0;
     shift_fixes += result.fixes == "shift" ? 1 : 0;
     ++frame;

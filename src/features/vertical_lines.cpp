@@ -34,11 +34,11 @@ void VerticalLineOptions::validate() const {
   if (min_length_px < 3) throw std::invalid_argument("vertical lines: min_length_px must be >= 3");
   // 1020 = 4 · 255, the largest |gx| of the 3x3 Sobel on an 8-bit image: a higher threshold finds
   // nothing (and would not fit the int threshold; found by fuzz_vertical_lines).
-  if (!(min_gradient_fraction >= 0.0 && min_gradient_fraction <= 100.0)) {
-    throw std::invalid_argument("vertical lines: min_gradient_fraction must be in [0, 100]");
-  }
   if (!(min_gradient > 0.0 && min_gradient <= 1020.0)) {
     throw std::invalid_argument("vertical lines: min_gradient must be in (0, 1020]");
+  }
+  if (!(min_gradient_fraction >= 0.0 && min_gradient_fraction <= 100.0)) {
+    throw std::invalid_argument("vertical lines: min_gradient_fraction must be in [0, 100]");
   }
   if (!(max_step_px > 0.0)) throw std::invalid_argument("vertical lines: max_step_px must be > 0");
   if (max_row_gap < 0) throw std::invalid_argument("vertical lines: max_row_gap must be >= 0");

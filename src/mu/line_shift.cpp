@@ -48,12 +48,16 @@ LineShift::LineShift(const LineShiftOptions& options) : options_(options), brief
 Expected<LineShiftFeatures> LineShift::describe(const cv::Mat& image, const PinholeCamera* camera) {
   const auto gray = toGray8(image);
   if (!gray) return gray.status();
-  VerticalLineOptions line_options = options_.lines;
-  const double rows = static_cast<double>(gray->rows);
-  line_options.min_length_px = std::max(2, static_cast<int>(std::lround(options_.min_length_fraction * rows)));
-  line_options.max_row_gap = static_cast<int>(std::lround(options_.max_row_gap_fraction * rows));
-  VerticalLineExtractor extractor(line_options);
-  auto lines = extractor.extract(*gray, camera);
+  if (!extractor_ || extractor_rows_ != gray->rows) {
+    // The lengths for this image height (the extractor keeps its work buffers between views).
+    VerticalLineOptions line_options = options_.lines;
+    const double rows = static_cast<double>(gray->rows);
+    line_options.min_length_px = std::max(3, static_cast<int>(std::lround(options_.min_length_fraction * rows)));
+    line_options.max_row_gap = static_cast<int>(std::lround(options_.max_row_gap_fraction * rows));
+    extractor_.emplace(line_options);
+    extractor_rows_ = gray->rows;
+  }
+  auto lines = extractor_->extract(*gray, camera);
   if (!lines) return lines.status();
   LineShiftFeatures described;
   described.image_size = gray->size();

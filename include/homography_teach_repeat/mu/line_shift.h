@@ -35,8 +35,8 @@ namespace homography_teach_repeat {
 struct LineShiftOptions {
   // The extraction's tolerances (min_length_px and max_row_gap are replaced by the fractions below).
   VerticalLineOptions lines = seasonalLineOptions();
-  // A line's shortest length and the rows without an edge pixel it may bridge, as fractions of the
-  // image height (0.02: 8 rows of a 384-row image, 10 of 480).
+  // A line's shortest length (at least 3 rows) and the rows without an edge pixel it may bridge, as
+  // fractions of the image height (0.02: 8 rows of a 384-row image, 10 of 480).
   double min_length_fraction = 0.02;
   double max_row_gap_fraction = 0.02;
   double point_spacing_px = 4.0;  // between the described points along a line [px, >= 1]
@@ -79,6 +79,8 @@ class LineShift {
  private:
   LineShiftOptions options_;
   cv::Ptr<cv::Feature2D> brief_;
+  std::optional<VerticalLineExtractor> extractor_;  // for images of extractor_rows_ rows
+  int extractor_rows_ = -1;
 };
 
 }  // namespace homography_teach_repeat

@@ -154,7 +154,6 @@ Extracted extract(const Method& method, Extractors& extractors, const cv::Mat& i
   if (extractors.line_shift) {
     auto described = extractors.line_shift->describe(image);
     if (described) {
-      e.lines = described->lines;
       e.line_points = std::move(*described);
     } else {
       e.problem = described.status().toString();
@@ -309,6 +308,7 @@ int main(int argc, char** argv) {
       extracted[path] = extract(method, extractors, image);
       extract_ms += extracted[path].time_ms;
       if (extracted[path].lines) lines_total += static_cast<double>(extracted[path].lines->size());
+      if (extracted[path].line_points) lines_total += static_cast<double>(extracted[path].line_points->lines.size());
     }
     const double extract_ms_per_image = extract_ms / static_cast<double>(images.size());
     int failures = 0, no_estimate = 0, line_matches_total = 0;
