@@ -2,7 +2,10 @@
 
 #include <opencv2/video/tracking.hpp>
 
+#include <chrono>
+#include <exception>
 #include <string>
+#include <utility>
 
 namespace homography_teach_repeat {
 
@@ -65,6 +68,46 @@ Expected<PointMatches> FrameTracker::track(const cv::Mat& gray) const {
                                                 std::to_string(min_points_));
   }
   return followed;
+}
+
+BackgroundDetection& BackgroundDetection::operator=(BackgroundDetection&& other) noexcept {
+  if (this != &other) {
+    discard();
+    job_ = std::move(other.job_);
+    other.job_.reset();
+  }
+  return *this;
+}
+
+void BackgroundDetection::start(Detect detect, const cv::Mat& gray, std::optional<Pose2D> predicted_pose) {
+  discard();
+  Job job;
+  job.gray = gray.clone();  // the caller's image may be a view of a buffer it reuses
+  job.predicted_pose = predicted_pose;
+  job.observations = std::async(std::launch::async, [detect = std::move(detect), image = job.gray]() {
+    try {
+      return detect(image);
+    } catch (const std::exception& e) {
+      return Expected<FrameObservations>(
+          Status(StatusCode::kInvalidInput, std::string("background feature detection: ") + e.what()));
+    }
+  });
+  job_ = std::move(job);
+}
+
+BackgroundDetection::Result BackgroundDetection::take() {
+  const auto start = std::chrono::steady_clock::now();
+  Job job = std::move(*job_);
+  job_.reset();
+  Result result{job.observations.get(), std::move(job.gray), job.predicted_pose, job.frames_since, 0.0};
+  result.waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+void BackgroundDetection::discard() {
+  if (!job_) return;
+  if (job_->observations.valid()) job_->observations.wait();
+  job_.reset();
 }
 
 }  // namespace homography_teach_repeat

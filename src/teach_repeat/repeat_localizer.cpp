@@ -35,8 +35,15 @@ RepeatLocalizer::RepeatLocalizer(const Route& route, KeyframeStore keyframes, st
       keyframes_(std::move(keyframes)),
       estimator_(std::move(estimator)),
       selector_(keyframes_.poses(), estimator_->context().options.closed_route_gap),
-      tracker_(estimator_->context().options.max_tracked_frames, estimator_->context().options.tracking_tolerance_px,
-               estimator_->context().options.min_inliers) {}
+      // With background detection the frame that takes the detected features in is one optical-
+      // flow step beyond the tracked ones (RepeatOptions::background_detection).
+      tracker_(estimator_->context().options.max_tracked_frames + (backgroundDetectionOn() ? 1 : 0),
+               estimator_->context().options.tracking_tolerance_px, estimator_->context().options.min_inliers) {}
+
+bool RepeatLocalizer::backgroundDetectionOn() const {
+  const RepeatOptions& o = estimator_->context().options;
+  return o.background_detection && o.max_tracked_frames > 0 && estimator_->usesPointFeatures();
+}
 
 Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
   auto keyframes = KeyframeStore::load(route, options);  // validates the options
@@ -49,6 +56,7 @@ Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const Repe
 void RepeatLocalizer::setTrackedKeyframe(int keyframe) {
   selector_.setTracked(keyframe);
   tracker_.forget();
+  background_.discard();
 }
 
 bool RepeatLocalizer::isTurnKeyframe(int keyframe) const {
@@ -70,12 +78,27 @@ Expected<RepeatEstimate> RepeatLocalizer::localize(const cv::Mat& image, std::op
     auto converted = toGray8(image);
     if (!converted) return converted.status();
     gray = std::move(*converted);
-    if (tracker_.canTrack(selector_.tracked())) {
+    background_.frameSeen();
+    const bool can_track = tracker_.canTrack(selector_.tracked());
+    // The worker's features are taken in max_tracked_frames + 1 frames after the frame they are
+    // of (the rate of detections without a worker), or where tracking cannot go on (another
+    // keyframe, or the tracking budget spent).
+    if (background_.pending() && (!can_track || background_.framesSince() > options().max_tracked_frames)) {
+      auto estimate = localizeFromBackground(gray, check);
+      if (estimate) {
+        startBackgroundDetection(gray, predicted_pose);
+        return estimate;
+      }
+    } else if (can_track) {
       auto estimate = localizeByTracking(gray, check);
-      if (estimate) return estimate;
-      // Detect afresh (the time spent on tracking counts as extraction).
+      if (estimate) {
+        if (backgroundDetectionOn() && !background_.pending()) startBackgroundDetection(gray, predicted_pose);
+        return estimate;
+      }
     }
+    // Detect afresh (the time spent on tracking counts as extraction).
     tracker_.forget();
+    background_.discard();
   }
   auto frame = estimator_->observe(image, gray);
   if (!frame) return frame.status();
@@ -220,12 +243,41 @@ Expected<RepeatEstimate> RepeatLocalizer::localizeByTracking(const cv::Mat& gray
   return estimate;
 }
 
+Expected<RepeatEstimate> RepeatLocalizer::localizeFromBackground(const cv::Mat& gray, const PoseCheck& check) {
+  BackgroundDetection::Result detected = background_.take();
+  timing_.extraction_ms = detected.waited_ms;
+  if (!detected.observations) return detected.observations.status();
+  tracker_.forget();
+  // Against the keyframes only (no temporary reference: that frame is past). Its pose is not the
+  // current one, so the caller's check waits for the pose followed into this frame.
+  const auto earlier = localizeAgainstCandidates(*detected.observations, detected.gray, detected.predicted_pose,
+                                                 options().neighbour_search, 0, {});
+  if (!earlier) return earlier.status();
+  if (tracker_.keyframe() < 0) {
+    return Status(StatusCode::kNoConsensus, "background detection: the frame's estimate gives no matches to follow");
+  }
+  const LocalizeTiming before = timing_;
+  auto estimate = localizeByTracking(gray, check);
+  timing_.extraction_ms += before.extraction_ms;
+  timing_.references_ms += before.references_ms;
+  timing_.references_tried += before.references_tried;
+  timing_.background = estimate.isOk();
+  return estimate;
+}
+
+void RepeatLocalizer::startBackgroundDetection(const cv::Mat& gray, const std::optional<Pose2D>& predicted_pose) {
+  KeyframeEstimator* estimator = estimator_.get();  // owned by this localizer, which outlives the job
+  background_.start([estimator](const cv::Mat& image) { return estimator->observe(image, image); }, gray,
+                    predicted_pose);
+}
+
 void RepeatLocalizer::advanceTracking(const RepeatEstimate& estimate) {
   selector_.setTracked(estimate.keyframe);
   if (estimate.has_pose) selector_.advanceTo(estimate.base_pose);
 }
 
 Expected<RepeatEstimate> RepeatLocalizer::initializeGlobally(const cv::Mat& image) {
+  background_.discard();  // the estimator is this thread's again
   if (image.empty()) return Status(StatusCode::kInvalidInput, "image is empty");
   auto gray = estimator_->usesPointFeatures() ? toGray8(image) : Expected<cv::Mat>(cv::Mat());
   if (!gray) return gray.status();

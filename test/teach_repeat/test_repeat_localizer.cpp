@@ -319,6 +319,7 @@ TEST(RepeatLocalizer, RouteWithoutPlanesNeedsMuMode) {
 TEST_F(RepeatLocalizerTest, FramesBetweenDetectionsAreTracked) {
   RepeatOptions options;
   options.max_tracked_frames = 2;
+  options.background_detection = false;  // test_background_detection.cpp
   auto localizer = RepeatLocalizer::create(route(), options);
   ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
   localizer->setTrackedKeyframe(1);

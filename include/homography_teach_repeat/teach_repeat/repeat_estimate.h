@@ -92,6 +92,14 @@ struct RepeatOptions {
   // after this many tracked frames (which bounds the drift of chained tracks). 0: every frame is
   // detected.
   int max_tracked_frames = 2;
+  // With max_tracked_frames > 0: the features of a tracked frame are detected on a worker thread
+  // while the next frames are tracked, and are brought into the frame max_tracked_frames + 1 later
+  // (or the first that cannot be tracked: another keyframe) by one more optical-flow step from the
+  // detected image. A frame then costs tracking plus matching instead of a detection (SIFT at
+  // 640x480 on 2 cores: ~50 ms), at the same rate of detections. The result does not depend on
+  // the worker's timing: a frame that needs the features waits for them. false: the frame is
+  // detected where it needs the features (docs/design.md, "Background detection").
+  bool background_detection = true;
   // Forward-backward check of a tracked point [px]: tracked back into the previous frame it must
   // land within this distance of where it started.
   double tracking_tolerance_px = 0.5;
@@ -145,6 +153,9 @@ struct LocalizeTiming {
   double references_ms = 0.0;  // matching and estimation against every reference tried
   int references_tried = 0;    // route keyframes and the temporary reference
   bool tracked = false;        // the estimate came from tracking (RepeatEstimate::tracked)
+  // The features were detected on the worker thread from an earlier frame and matched in this
+  // one (RepeatOptions::background_detection); extraction_ms includes the wait for them.
+  bool background = false;
 };
 
 }  // namespace homography_teach_repeat

@@ -85,6 +85,12 @@ class RepeatLocalizer {
                                                      const std::optional<Pose2D>& predicted_pose, int neighbour_search,
                                                      int max_degraded_frames, const PoseCheck& check);
   Expected<RepeatEstimate> localizeByTracking(const cv::Mat& gray, const PoseCheck& check);
+  // The features the worker detected in an earlier frame: matched against the candidates there,
+  // their inliers followed into `gray` by one optical-flow step.
+  Expected<RepeatEstimate> localizeFromBackground(const cv::Mat& gray, const PoseCheck& check);
+  // Detects the features of `gray` on the worker (RepeatOptions::background_detection).
+  void startBackgroundDetection(const cv::Mat& gray, const std::optional<Pose2D>& predicted_pose);
+  bool backgroundDetectionOn() const;
   // The frame that just localized against `source` becomes the temporary reference (a pose
   // estimate needs source's plane seen from the frame; its uncertainty goes with it).
   void keepAsTemporaryReference(FrameObservations frame, const RepeatEstimate& estimate,
@@ -102,6 +108,8 @@ class RepeatLocalizer {
   int temporary_keyframe_ = -1;
   int degraded_frames_ = 0;
   LocalizeTiming timing_;
+  // Last: its worker uses *estimator_ and must stop before the estimator goes.
+  BackgroundDetection background_;
 };
 
 }  // namespace homography_teach_repeat

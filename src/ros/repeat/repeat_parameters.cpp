@@ -25,6 +25,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.max_degraded_frames = readParameter(nh, "max_degraded_frames", r.max_degraded_frames);
     r.max_tracked_frames = readParameter(nh, "max_tracked_frames", r.max_tracked_frames);
     r.tracking_tolerance_px = readParameter(nh, "tracking_tolerance", r.tracking_tolerance_px);
+    r.background_detection = readParameter(nh, "background_detection", r.background_detection);
     r.use_experiences = readParameter(nh, "use_experiences", r.use_experiences);
     r.max_plane_residual_px = readParameter(nh, "max_plane_residual", r.max_plane_residual_px);
     r.closed_route_gap = readParameter(nh, "closed_route_gap", r.closed_route_gap);
