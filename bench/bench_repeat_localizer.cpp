@@ -170,6 +170,7 @@ void BM_RepeatFrames(benchmark::State& state, bool seasonal, bool camera_rate, b
     state.SkipWithError(pipeline.status().toString().c_str());
     return;
   }
+  pipeline->warmUp();  // as repeat_node at start-up
   constexpr int kFrames = 40;
   std::vector<cv::Mat> images;
   std::vector<htr::Pose2D> odometry;

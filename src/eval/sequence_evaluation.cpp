@@ -333,6 +333,7 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     for (const auto& message : evaluation.planes.messages) why += "; teach: " + message;
     return Status(pipeline.status().code(), why);
   }
+  pipeline->warmUp();  // as repeat_node at start-up (frame times)
   std::size_t next_odometry = 0;
   std::vector<Pose2D> truth_path;
   std::vector<double> distance;

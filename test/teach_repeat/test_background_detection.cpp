@@ -98,9 +98,10 @@ TEST(BackgroundDetection, DiscardWaitsForTheWorkerAndStartReplacesIt) {
 }
 
 // With max_tracked_frames 2 the frame after the detected one is tracked and its features are
-// detected on the worker; three frames later they come in (tracked, background) and the next
-// frame's detection starts: one detection every third frame as without the worker, none of them
-// in a frame's own time. Poses as accurate as detected ones (~1 mm, 0.02° here).
+// detected on the worker; the next frame that may not be tracked any more (the third) takes them
+// in (tracked, background) and starts its own detection, taken in three frames later, and so on:
+// one detection every third frame as without the worker, none of them in a frame's own time.
+// Poses as accurate as detected ones (~1 mm, 0.02° here).
 TEST_F(BackgroundDetectionTest, EveryThirdFrameTakesInFeaturesDetectedMeanwhile) {
   RepeatOptions options;
   options.max_tracked_frames = 2;
@@ -108,7 +109,7 @@ TEST_F(BackgroundDetectionTest, EveryThirdFrameTakesInFeaturesDetectedMeanwhile)
   auto localizer = RepeatLocalizer::create(route(), options);
   ASSERT_TRUE(localizer.isOk()) << localizer.status().toString();
   localizer->setTrackedKeyframe(1);
-  const std::vector<bool> background{false, false, false, false, true, false, false, true, false, false, true};
+  const std::vector<bool> background{false, false, false, true, false, false, true, false, false, true, false};
   for (std::size_t step = 0; step < background.size(); ++step) {
     const PlanarPose camera_pose = cameraPoseAt(static_cast<int>(step));
     const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
@@ -190,14 +191,17 @@ TEST_F(BackgroundDetectionTest, AFrameTheFeaturesCannotFollowIntoDetectsItsOwn) 
   EXPECT_FALSE(localizer->localize(test_support::makeTexture(640, 480, 98)).isOk());
 }
 
-// Along the route past several keyframes: where the tracked keyframe changes the worker's
-// features are taken in early (matched against the new keyframe), every frame has a pose.
-TEST_F(BackgroundDetectionTest, AnotherKeyframeTakesTheFeaturesInEarly) {
+// Along the route past several keyframes: where the robot comes nearer the next keyframe the
+// frames go on tracking the last one until the worker's features are due, which are then matched
+// against the new one; no frame detects after the first, every frame has a pose. A warm-up first
+// (repeat_node's start-up) changes nothing of that.
+TEST_F(BackgroundDetectionTest, AnotherKeyframeWaitsForTheWorkersFeatures) {
   auto localizer = RepeatLocalizer::create(route(), RepeatOptions());
   ASSERT_TRUE(localizer.isOk());
+  localizer->warmUpBackgroundDetection();
   localizer->setTrackedKeyframe(0);
   int detected = 0, background = 0, last_keyframe = 0;
-  for (int step = 0; step < 30; ++step) {
+  for (int step = 0; step < 40; ++step) {
     const double s = 0.05 + 0.025 * step;
     const PlanarPose camera_pose(0.08 * s + 0.04, s, 0.04 * s);
     const auto estimate = localizer->localize(wall_->imageAt(camera_pose));
@@ -210,7 +214,7 @@ TEST_F(BackgroundDetectionTest, AnotherKeyframeTakesTheFeaturesInEarly) {
     EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.005) << step;
     EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.005) << step;
   }
-  EXPECT_GE(last_keyframe, 3);
-  EXPECT_EQ(detected, 1);      // the first frame only
-  EXPECT_GE(background, 8);   // about every third frame
+  EXPECT_GE(last_keyframe, 3) << "tracking reached keyframe " << localizer->trackedKeyframe();
+  EXPECT_EQ(detected, 1);     // the first frame only
+  EXPECT_GE(background, 12);  // every third frame
 }

@@ -39,6 +39,10 @@ class FrameTracker {
   // Keeps `inliers` (against `keyframe`, measured in `gray`) for the next frames.
   void remember(const PointMatches& inliers, int keyframe, const cv::Mat& gray, int frames_tracked);
   void forget() { memory_.reset(); }
+  // Counts the remembered matches as `frames_tracked` frames old (e.g. -1: the next step does not count).
+  void setFramesTracked(int frames_tracked) {
+    if (memory_) memory_->frames_tracked = frames_tracked;
+  }
 
  private:
   struct Memory {

@@ -56,6 +56,12 @@ class RepeatLocalizer {
   Expected<RepeatEstimate> localize(const cv::Mat& image, std::optional<Pose2D> predicted_pose = std::nullopt,
                                     const PoseCheck& check = {});
 
+  // With background detection (RepeatOptions::background_detection): one detection of a noise
+  // image of the camera's size on the worker, waited for. The worker's first detection takes
+  // several times as long as the next (its memory is fresh); repeat_node does this at start-up
+  // instead of in its first frames. No effect otherwise.
+  void warmUpBackgroundDetection();
+
   // Of the last localize() call (initializeGlobally: of its last localize()), failed ones too.
   const LocalizeTiming& lastTiming() const { return timing_; }
 

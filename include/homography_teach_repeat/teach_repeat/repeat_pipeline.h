@@ -132,6 +132,8 @@ class RepeatPipeline {
   Status addOdometry(double stamp, const Pose2D& odom);
   // One image with the camera it was taken with (either may be the conversion's failure).
   RepeatFrameResult processFrame(double stamp, const Expected<cv::Mat>& image, const Expected<PinholeCamera>& camera);
+  // Before the first frame: RepeatLocalizer::warmUpBackgroundDetection (repeat_node does it at start-up).
+  void warmUp() { localizer_.warmUpBackgroundDetection(); }
   // New localization options (e.g. dynamic_reconfigure), tracking the same keyframe; the old ones
   // stay when the route cannot support them (the status says why).
   Status reconfigure(const RepeatOptions& options);

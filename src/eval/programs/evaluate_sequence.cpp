@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}, {"mu-line-landmarks", "0"}, {"line-min-length", "25"}, {"shift-heading", "1"}},
+       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}, {"background-detection", "1"}, {"mu-line-landmarks", "0"}, {"line-min-length", "25"}, {"shift-heading", "1"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
       "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
       "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
+      "  [--background-detection 0|1] (the features of a tracked frame detected on a worker thread meanwhile)\n"
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
       "  [--max-plane-residual PX] (RMS of the matches about the keyframe plane's homography above which a keyframe is refused)\n"
       "  [--teach-tilt 0|1] (each keyframe pair's relative pitch and roll estimated with its plane)\n"
@@ -146,6 +147,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.localization.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.repeat.localization.max_tracked_frames = args.integer("max-tracked-frames");
+  options.repeat.localization.background_detection = args.integer("background-detection") != 0;
   options.repeat.shift_heading = args.integer("shift-heading") != 0;
   options.repeat.localization.mu_line_landmarks = args.integer("mu-line-landmarks") != 0;
   options.teach.lines.min_length_px = args.integer("line-min-length");

@@ -51,6 +51,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   auto pipeline = RepeatPipeline::create(*route, options);
   if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
   pipeline_.emplace(std::move(*pipeline));
+  pipeline_->warmUp();
   // Routes that learn (docs/route_format.md, "Experiences").
   if (const auto learning = readExperienceLearningOptions(private_nh)) {
     route_ = *route;
