@@ -36,6 +36,7 @@ void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFr
     heading.reference_index = e->keyframe;
     heading.degraded = e->degraded;
     heading.tracked = e->tracked;
+    heading.background = result.timing && result.timing->background;
     if (e->keyframe != marked_keyframe_) publishMarkers(e->keyframe);
   } else {
     ROS_WARN_THROTTLE(2.0, "repeat_node: no estimate: %s", result.status.toString().c_str());
