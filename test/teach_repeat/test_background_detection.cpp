@@ -117,31 +117,7 @@ TEST_F(BackgroundDetectionTest, EveryThirdFrameTakesInFeaturesDetectedMeanwhile)
     EXPECT_EQ(estimate->tracked, step > 0) << step;
     EXPECT_EQ(localizer->lastTiming().background, background[step]) << step;
     EXPECT_EQ(localizer->lastTiming().tracked, step > 0) << step;
-    EXPECT_EQ(estimate->keyframe, 1) << step;
-    EXPECT_FALSE(estimate->degraded);
-    EXPECT_TRUE(estimate->covariance_known);
-    EXPECT_GT(estimate->inliers, 300) << step;
-    const Pose2D truth = cameraAxesToRep103(camera_pose);
-    EXPECT_NEAR(estimate->base_pose.x, truth.x, 0.003) << step;
-    EXPECT_NEAR(estimate->base_pose.y, truth.y, 0.003) << step;
-    EXPECT_NEAR(wrapToPi(estimate->base_pose.yaw - truth.yaw), 0.0, 0.05 * M_PI / 180.0) << step;
-  }
-}
-
-// Off, the frame that needs features detects them itself (the third after a detection).
-TEST_F(BackgroundDetectionTest, OffTheFrameDetectsItself) {
-  RepeatOptions options;
-  options.max_tracked_frames = 2;
-  options.background_detection = false;
-  auto localizer = RepeatLocalizer::create(route(), options);
-  ASSERT_TRUE(localizer.isOk());
-  localizer->setTrackedKeyframe(1);
-  const std::vector<bool> tracked{false, true, true, false, true, true, false};
-  for (std::size_t step = 0; step < tracked.size(); ++step) {
-    const auto estimate = localizer->localize(wall_->imageAt(cameraPoseAt(static_cast<int>(step))));
-    ASSERT_TRUE(estimate.isOk()) << step;
-    EXPECT_EQ(estimate->tracked, tracked[step]) << step;
-    EXPECT_FALSE(localizer->lastTiming().background) << step;
+    expectAccurateAgainstKeyframe1(*estimate, camera_pose, step);
   }
 }
 
