@@ -291,7 +291,6 @@ void RepeatLocalizer::warmUpBackgroundDetection() {
   cv::Mat noise(camera().height(), camera().width(), CV_8UC1);
   cv::RNG random(1);
   random.fill(noise, cv::RNG::UNIFORM, 0, 256);
-  tracker_.forget();  // what is remembered belongs to no detection any more
   startBackgroundDetection(noise, std::nullopt);
   background_.discard();
 }
