@@ -22,7 +22,7 @@ HTR_DEBIAN_PACKAGES=(
   libcv-bridge-dev libimage-transport-dev libmessage-filters-dev libdiagnostic-updater-dev
   libnav-msgs-dev libvisualization-msgs-dev libtf2-ros-dev libtf2-eigen-dev libstd-srvs-dev
   ros-std-msgs ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-diagnostic-msgs
-  libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev
+  libopencv-dev libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libboost-graph-dev
   libgtest-dev googletest libbenchmark-dev
   clang clang-tidy libclang-rt-14-dev
   opencv-doc python3-matplotlib

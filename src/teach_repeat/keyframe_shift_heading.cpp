@@ -79,7 +79,7 @@ Expected<const ShiftFeatures*> KeyframeShiftHeading::viewFeatures(int keyframe, 
   if (experience == 0) {
     image = loadKeyframeImage(route_, static_cast<std::size_t>(keyframe));
   } else if (experience <= static_cast<int>(taught.experiences.size())) {
-    const std::string path = route_.directory + "/" + taught.experiences[static_cast<std::size_t>(experience - 1)].image_file;
+    const std::string path = routeFilePath(route_.directory, taught.experiences[static_cast<std::size_t>(experience - 1)].image_file);
     cv::Mat read = cv::imread(path, cv::IMREAD_UNCHANGED);
     if (read.empty()) {
       image = Status(StatusCode::kInvalidInput, "experience image '" + path + "' cannot be decoded");

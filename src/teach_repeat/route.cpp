@@ -236,6 +236,11 @@ Status writeRouteIndex(const Route& route) {
   return writeFileAtomically(route.directory + "/" + kIndexName, std::string(out.c_str()) + "\n");
 }
 
+std::string routeFilePath(const std::string& directory, const std::string& file) {
+  if (!file.empty() && file.front() == '/') return file;
+  return directory + "/" + file;
+}
+
 bool isClosedRoute(const Route& route, double max_gap) {
   std::vector<Pose2D> poses;
   for (const auto& k : route.keyframes) poses.push_back(k.pose);
@@ -304,8 +309,8 @@ Expected<Route> loadRoute(const std::string& directory) {
       k.features_file = reader.get<std::string>(node, "features");
       k.lines_file = reader.get<std::string>(node, "lines");
       for (const std::string* file : {&k.image_file, &k.features_file, &k.lines_file}) {
-        if (!fileExists(directory + "/" + *file)) {
-          throw reader.error(node, "keyframe file '" + directory + "/" + *file + "' is missing");
+        if (!fileExists(routeFilePath(directory, *file))) {
+          throw reader.error(node, "keyframe file '" + routeFilePath(directory, *file) + "' is missing");
         }
       }
       if (node["plane"]) {
@@ -336,8 +341,8 @@ Expected<Route> loadRoute(const std::string& directory) {
           experience.image_file = reader.get<std::string>(e, "image");
           experience.features_file = reader.get<std::string>(e, "features");
           for (const std::string* file : {&experience.image_file, &experience.features_file}) {
-            if (!fileExists(directory + "/" + *file)) {
-              throw reader.error(e, "experience file '" + directory + "/" + *file + "' is missing");
+            if (!fileExists(routeFilePath(directory, *file))) {
+              throw reader.error(e, "experience file '" + routeFilePath(directory, *file) + "' is missing");
             }
           }
           k.experiences.push_back(std::move(experience));

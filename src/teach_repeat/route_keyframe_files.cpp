@@ -49,7 +49,7 @@ Status checkKeyframe(const Route& route, std::size_t keyframe) {
 Expected<cv::Mat> loadKeyframeImage(const Route& route, std::size_t keyframe) {
   const Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;
-  const std::string path = route.directory + "/" + route.keyframes[keyframe].image_file;
+  const std::string path = routeFilePath(route.directory, route.keyframes[keyframe].image_file);
   cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
   if (image.empty()) {
     return Status(StatusCode::kInvalidInput, "keyframe image '" + path + "' cannot be decoded");
@@ -86,13 +86,13 @@ Expected<ImageFeatures> loadFeaturesFile(const Route& route, const std::string& 
 Expected<ImageFeatures> loadKeyframeFeatures(const Route& route, std::size_t keyframe) {
   const Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;
-  return loadFeaturesFile(route, route.directory + "/" + route.keyframes[keyframe].features_file);
+  return loadFeaturesFile(route, routeFilePath(route.directory, route.keyframes[keyframe].features_file));
 }
 
 Status writeKeyframeFeatures(const Route& route, std::size_t keyframe, const ImageFeatures& features) {
   Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;
-  return writeFeaturesFile(route.directory + "/" + route.keyframes[keyframe].features_file, features);
+  return writeFeaturesFile(routeFilePath(route.directory, route.keyframes[keyframe].features_file), features);
 }
 
 Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t keyframe, std::size_t experience) {
@@ -103,13 +103,13 @@ Expected<ImageFeatures> loadExperienceFeatures(const Route& route, std::size_t k
     return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(keyframe) + " has no experience " +
                                                  std::to_string(experience));
   }
-  return loadFeaturesFile(route, route.directory + "/" + experiences[experience].features_file);
+  return loadFeaturesFile(route, routeFilePath(route.directory, experiences[experience].features_file));
 }
 
 Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::size_t keyframe) {
   const Status valid = checkKeyframe(route, keyframe);
   if (!valid.isOk()) return valid;
-  const std::string path = route.directory + "/" + route.keyframes[keyframe].lines_file;
+  const std::string path = routeFilePath(route.directory, route.keyframes[keyframe].lines_file);
   const Reader reader(path);
   std::vector<VerticalLine> lines;
   try {

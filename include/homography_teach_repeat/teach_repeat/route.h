@@ -78,6 +78,11 @@ struct Route {
   int loaded_format_version = kRouteFormatVersion;  // as found on disk (1: not yet migrated)
 };
 
+// Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed
+// along a path through a map of routes, network/path_route.h, names files of several routes),
+// otherwise relative to `directory` (the route's folder).
+std::string routeFilePath(const std::string& directory, const std::string& file);
+
 // Writes route.yaml (format_version 2) atomically from `route`.
 Status writeRouteIndex(const Route& route);
 

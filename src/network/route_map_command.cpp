@@ -1,0 +1,200 @@
+#include "homography_teach_repeat/network/route_map_command.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+
+#include "homography_teach_repeat/network/route_graph.h"
+#include "homography_teach_repeat/network/route_map.h"
+
+namespace homography_teach_repeat {
+namespace {
+
+const char* const kUsage =
+    "usage: route_map list MAP [--json]\n"
+    "       route_map migrate MAP [NAME]\n"
+    "       route_map rename MAP OLD NEW\n"
+    "       route_map remove MAP NAME\n"
+    "       route_map remove-junctions MAP ROUTE[:KEYFRAME]\n"
+    "       route_map plan MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME [--json]\n";
+
+struct UsageError {
+  std::string message;
+};
+
+// "route:12" (or "route" alone when `keyframe_optional`, keyframe -1).
+KeyframeRef parseRef(const std::string& text, bool keyframe_optional) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos) {
+    if (keyframe_optional) return KeyframeRef{text, -1};
+    throw UsageError{"'" + text + "' is not ROUTE:KEYFRAME"};
+  }
+  KeyframeRef ref{text.substr(0, colon), -1};
+  const std::string number = text.substr(colon + 1);
+  std::size_t used = 0;
+  try {
+    ref.keyframe = std::stoi(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != number.size() || ref.keyframe < 0) {
+    throw UsageError{"'" + text + "': keyframe '" + number + "' is not a number >= 0"};
+  }
+  return ref;
+}
+
+double routeLength(const Route& route) {
+  double length = 0.0;
+  for (std::size_t k = 1; k < route.keyframes.size(); ++k) {
+    const Pose2D& a = route.keyframes[k - 1].pose;
+    const Pose2D& b = route.keyframes[k].pose;
+    length += std::hypot(b.x - a.x, b.y - a.y);
+  }
+  return length;
+}
+
+nlohmann::json describe(const RouteMap& map) {
+  nlohmann::json doc;
+  doc["directory"] = map.directory;
+  doc["format_version"] = map.loaded_format_version;
+  doc["routes"] = nlohmann::json::array();
+  for (const MapRoute& r : map.routes) {
+    doc["routes"].push_back({{"name", r.name},
+                             {"directory", r.directory},
+                             {"keyframes", r.route.keyframes.size()},
+                             {"length_m", routeLength(r.route)},
+                             {"closed", isClosedRoute(r.route, RouteGraphOptions().closed_route_gap)}});
+  }
+  doc["junctions"] = nlohmann::json::array();
+  for (const Junction& j : map.junctions) {
+    doc["junctions"].push_back({{"from", toString(j.from)},
+                                {"to", toString(j.to)},
+                                {"distance_m", std::hypot(j.to_in_from.x, j.to_in_from.y)},
+                                {"yaw_deg", j.to_in_from.yaw * 180.0 / M_PI},
+                                {"inliers", j.inliers}});
+  }
+  doc["orphan_folders"] = listRouteMapOrphans(map);
+  return doc;
+}
+
+void printList(const nlohmann::json& doc, std::ostream& out) {
+  out << "map " << doc["directory"].get<std::string>() << " (format " << doc["format_version"].get<int>() << ")\n";
+  out << std::fixed << std::setprecision(2);
+  for (const auto& r : doc["routes"]) {
+    out << "  route " << r["name"].get<std::string>() << ": " << r["keyframes"].get<int>() << " keyframes, "
+        << r["length_m"].get<double>() << " m" << (r["closed"].get<bool>() ? ", closed" : "") << " ("
+        << r["directory"].get<std::string>() << ")\n";
+  }
+  for (const auto& j : doc["junctions"]) {
+    out << "  junction " << j["from"].get<std::string>() << " -> " << j["to"].get<std::string>() << ": "
+        << j["distance_m"].get<double>() << " m, " << j["yaw_deg"].get<double>() << " deg, "
+        << j["inliers"].get<int>() << " inliers\n";
+  }
+  for (const auto& folder : doc["orphan_folders"]) {
+    out << "  not in the index (left by an interrupted teach or removal): " << folder.get<std::string>() << "\n";
+  }
+}
+
+RouteMap load(const std::string& directory) {
+  auto map = loadRouteMap(directory);
+  if (!map) throw UsageError{map.status().message()};
+  return std::move(*map);
+}
+
+void check(const Status& status) {
+  if (!status.isOk()) throw UsageError{status.message()};
+}
+
+}  // namespace
+
+int runRouteMapCommand(const std::vector<std::string>& raw_args, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> args;
+  bool json = false;
+  for (const std::string& a : raw_args) {
+    if (a == "--help" || a == "-h") {
+      out << kUsage;
+      return 0;
+    }
+    if (a == "--json") {
+      json = true;
+    } else {
+      args.push_back(a);
+    }
+  }
+  try {
+    if (args.size() < 2) throw UsageError{"a command and a map folder are needed"};
+    const std::string& command = args[0];
+    const std::string& directory = args[1];
+    auto expectArgs = [&](std::size_t low, std::size_t high) {
+      if (args.size() < low || args.size() > high) throw UsageError{"wrong number of arguments for '" + command + "'"};
+    };
+    if (command == "list") {
+      expectArgs(2, 2);
+      const nlohmann::json doc = describe(load(directory));
+      if (json) {
+        out << doc.dump(2) << "\n";
+      } else {
+        printList(doc, out);
+      }
+    } else if (command == "migrate") {
+      expectArgs(2, 3);
+      check(migrateToRouteMap(directory, args.size() == 3 ? args[2] : "route"));
+      out << "map.yaml written in " << directory << "\n";
+    } else if (command == "rename") {
+      expectArgs(4, 4);
+      RouteMap map = load(directory);
+      check(renameMapRoute(map, args[2], args[3]));
+      out << "renamed " << args[2] << " to " << args[3] << "\n";
+    } else if (command == "remove") {
+      expectArgs(3, 3);
+      RouteMap map = load(directory);
+      check(removeMapRoute(map, args[2]));
+      out << "removed " << args[2] << "\n";
+    } else if (command == "remove-junctions") {
+      expectArgs(3, 3);
+      RouteMap map = load(directory);
+      const auto removed = removeJunctions(map, parseRef(args[2], /*keyframe_optional=*/true));
+      if (!removed) throw UsageError{removed.status().message()};
+      out << "removed " << *removed << " junction" << (*removed == 1 ? "" : "s") << "\n";
+    } else if (command == "plan") {
+      expectArgs(4, 4);
+      const RouteMap map = load(directory);
+      const KeyframeRef from = parseRef(args[2], false);
+      const KeyframeRef to = parseRef(args[3], false);
+      const auto path = RouteGraph(map).shortestPath(from, to);
+      if (!path) {
+        err << "route_map: " << path.status().message() << "\n";
+        return path.status().code() == StatusCode::kNoConsensus ? 3 : 2;
+      }
+      nlohmann::json doc = {{"from", toString(from)},
+                            {"to", toString(to)},
+                            {"length_m", path->length_m},
+                            {"junctions_crossed", path->junctions_crossed},
+                            {"keyframes", nlohmann::json::array()}};
+      for (const KeyframeRef& k : path->keyframes) doc["keyframes"].push_back(toString(k));
+      if (json) {
+        out << doc.dump(2) << "\n";
+      } else {
+        out << std::fixed << std::setprecision(2) << toString(from) << " -> " << toString(to) << ": "
+            << path->length_m << " m, " << path->keyframes.size() << " keyframes, " << path->junctions_crossed
+            << " junction" << (path->junctions_crossed == 1 ? "" : "s") << "\n";
+        for (std::size_t i = 0; i < path->keyframes.size(); ++i) {
+          const bool change = i > 0 && path->keyframes[i].route != path->keyframes[i - 1].route;
+          if (i == 0 || change || i + 1 == path->keyframes.size()) {
+            out << "  " << (change ? "junction to " : "") << toString(path->keyframes[i]) << "\n";
+          }
+        }
+      }
+    } else {
+      throw UsageError{"unknown command '" + command + "'"};
+    }
+  } catch (const UsageError& e) {
+    err << "route_map: " << e.message << "\n" << kUsage;
+    return 2;
+  }
+  return 0;
+}
+
+}  // namespace homography_teach_repeat
