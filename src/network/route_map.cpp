@@ -226,14 +226,14 @@ Expected<RouteMap> loadRouteMap(const std::string& directory) {
   } catch (const std::runtime_error& e) {
     return invalid(e.what());
   }
-  const Status valid = validate(map, index);
+  Status valid = validate(map, index);
   if (!valid.isOk()) return valid;
   return map;
 }
 
 Status writeRouteMapIndex(const RouteMap& map) {
   if (map.routes.empty()) return invalid(indexPath(map.directory) + ": a map needs at least one route");
-  const Status valid = validate(map, indexPath(map.directory));
+  Status valid = validate(map, indexPath(map.directory));
   if (!valid.isOk()) return valid;
   return writeFileAtomically(indexPath(map.directory), emitIndex(map));
 }
@@ -249,7 +249,7 @@ Status migrateToRouteMap(const std::string& directory, const std::string& route_
 }
 
 std::string newRouteDirectory(const RouteMap& map, const std::string& name) {
-  const std::string base = std::string(kRoutesFolder) + "/" + name;
+  std::string base = std::string(kRoutesFolder) + "/" + name;
   auto taken = [&](const std::string& relative) {
     std::error_code error;
     if (fs::exists(fs::path(map.directory) / relative, error)) return true;
@@ -257,7 +257,7 @@ std::string newRouteDirectory(const RouteMap& map, const std::string& name) {
   };
   if (!taken(base)) return base;
   for (int n = 2;; ++n) {
-    const std::string candidate = base + "." + std::to_string(n);
+    std::string candidate = base + "." + std::to_string(n);
     if (!taken(candidate)) return candidate;
   }
 }
@@ -304,7 +304,7 @@ Status commitMapRoute(RouteMap& map, const std::string& name, const std::string&
   } else {
     updated.routes.push_back(std::move(entry));
   }
-  const Status written = writeRouteMapIndex(updated);
+  Status written = writeRouteMapIndex(updated);
   if (!written.isOk()) return written;
   map = std::move(updated);
   map.loaded_format_version = kRouteMapFormatVersion;
@@ -325,7 +325,7 @@ Status renameMapRoute(RouteMap& map, const std::string& from, const std::string&
     if (j.from.route == from) j.from.route = to;
     if (j.to.route == from) j.to.route = to;
   }
-  const Status written = writeRouteMapIndex(updated);
+  Status written = writeRouteMapIndex(updated);
   if (!written.isOk()) return written;
   map = std::move(updated);
   return Status::ok();
@@ -343,7 +343,7 @@ Status removeMapRoute(RouteMap& map, const std::string& name) {
   updated.junctions.erase(std::remove_if(updated.junctions.begin(), updated.junctions.end(),
                                          [&](const Junction& j) { return j.from.route == name || j.to.route == name; }),
                           updated.junctions.end());
-  const Status written = writeRouteMapIndex(updated);
+  Status written = writeRouteMapIndex(updated);
   if (!written.isOk()) return written;
   map = std::move(updated);
   deleteRouteFolder(map, directory);
@@ -358,7 +358,7 @@ Status addJunction(RouteMap& map, const Junction& junction) {
   updated.junctions.erase(std::remove_if(updated.junctions.begin(), updated.junctions.end(), same),
                           updated.junctions.end());
   updated.junctions.push_back(junction);
-  const Status written = writeRouteMapIndex(updated);
+  Status written = writeRouteMapIndex(updated);
   if (!written.isOk()) return written;
   map = std::move(updated);
   return Status::ok();
@@ -376,7 +376,7 @@ Expected<int> removeJunctions(RouteMap& map, const KeyframeRef& ref) {
                           updated.junctions.end());
   const int removed = static_cast<int>(before - updated.junctions.size());
   if (removed == 0) return 0;
-  const Status written = writeRouteMapIndex(updated);
+  Status written = writeRouteMapIndex(updated);
   if (!written.isOk()) return written;
   map = std::move(updated);
   return removed;
