@@ -142,7 +142,7 @@ Expected<PlaceIndex> PlaceIndex::build(const std::vector<cv::Mat>& place_descrip
     }
     total += static_cast<std::size_t>(d.rows);
   }
-  if (total == 0) return invalid("place index: no keyframe has descriptors");
+  if (total < 2) return invalid("place index: the keyframes hold fewer than 2 descriptors in all");
   g.binary = type == CV_8U;
 
   // Train the vocabulary on descriptors sampled evenly over all keyframes.

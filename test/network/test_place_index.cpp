@@ -109,6 +109,7 @@ TEST(PlaceIndex, KeyframesWithoutDescriptorsAreNeverProposed) {
 TEST(PlaceIndex, BadInputIsRefused) {
   EXPECT_EQ(PlaceIndex::build({}).status().code(), StatusCode::kInvalidInput);
   EXPECT_EQ(PlaceIndex::build({cv::Mat(), cv::Mat()}).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(PlaceIndex::build({cv::Mat(1, 128, CV_32F, cv::Scalar(0.5))}).status().code(), StatusCode::kInvalidInput);
   cv::Mat floats(10, 128, CV_32F, cv::Scalar(0.5));
   cv::Mat bytes(10, 32, CV_8U, cv::Scalar(7));
   EXPECT_EQ(PlaceIndex::build({floats, bytes}).status().code(), StatusCode::kInvalidInput);

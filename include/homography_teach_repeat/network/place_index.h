@@ -40,7 +40,7 @@ class PlaceIndex {
  public:
   // One entry per keyframe: its descriptors (rows; CV_32F, or CV_8U binary), all of one type and
   // width. A keyframe without descriptors is kept (it is never proposed). kInvalidInput for no
-  // keyframe, mixed types or widths, or no descriptor at all; kNotFinite for a non-finite value.
+  // keyframe, mixed types or widths, or fewer than 2 descriptors in all; kNotFinite for a non-finite value.
   static Expected<PlaceIndex> build(const std::vector<cv::Mat>& place_descriptors,
                                     const PlaceIndexOptions& options = {});
 
