@@ -57,6 +57,7 @@ struct PlaceIndex::Impl {
   cv::Mat places;                // keyframes x dimensions, unit rows (zero rows for empty keyframes)
   std::vector<int> indexed;      // rows of `places` that are in `place_search` (non-empty keyframes)
   cv::Mat indexed_places;
+  std::vector<std::string> labels;  // empty or one per row of `places`
   std::unique_ptr<cv::flann::Index> place_search;
   int checks = 64;
 
@@ -224,12 +225,22 @@ Expected<std::vector<PlaceCandidate>> PlaceIndex::query(const cv::Mat& descripto
   return candidates;
 }
 
+Status PlaceIndex::setLabels(std::vector<std::string> labels) {
+  if (!labels.empty() && labels.size() != size()) {
+    return invalid("place index: " + std::to_string(labels.size()) + " labels for " + std::to_string(size()) + " keyframes");
+  }
+  impl_->labels = std::move(labels);
+  return Status::ok();
+}
+
+const std::vector<std::string>& PlaceIndex::labels() const { return impl_->labels; }
+
 Status PlaceIndex::save(const std::string& path) const {
   const Impl& g = *impl_;
   cv::FileStorage out(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
   out << "format_version" << 1 << "binary" << static_cast<int>(g.binary) << "descriptor_cols" << g.descriptor_cols
       << "vocabulary" << g.vocabulary << "idf" << g.idf << "pca_mean" << g.pca_mean << "pca_basis" << g.pca_basis
-      << "places" << g.places;
+      << "places" << g.places << "labels" << g.labels;
   return writeFileAtomically(path, out.releaseAndGetString());
 }
 
@@ -250,6 +261,8 @@ Expected<PlaceIndex> PlaceIndex::load(const std::string& path, const PlaceIndexO
     in["pca_mean"] >> g.pca_mean;
     in["pca_basis"] >> g.pca_basis;
     in["places"] >> g.places;
+    const cv::FileNode labels = in["labels"];
+    if (!labels.empty()) labels >> g.labels;
   } catch (const cv::Exception& e) {
     return invalid(path + ": corrupt place index (" + e.msg + ")");
   }
@@ -261,6 +274,9 @@ Expected<PlaceIndex> PlaceIndex::load(const std::string& path, const PlaceIndexO
                                            : (g.pca_basis.cols == words && g.pca_mean.cols == words &&
                                               g.places.cols == g.pca_basis.rows));
   if (!shapes) return invalid(path + ": the place index's matrices do not fit together (corrupt file?)");
+  if (!g.labels.empty() && static_cast<int>(g.labels.size()) != g.places.rows) {
+    return invalid(path + ": " + std::to_string(g.labels.size()) + " labels for " + std::to_string(g.places.rows) + " keyframes");
+  }
   if (!cv::checkRange(g.vocabulary) || !cv::checkRange(g.idf) || !cv::checkRange(g.places) ||
       (!g.pca_basis.empty() && (!cv::checkRange(g.pca_basis) || !cv::checkRange(g.pca_mean)))) {
     return invalid(path + ": the place index holds non-finite numbers");

@@ -1,11 +1,16 @@
 #include "homography_teach_repeat/network/route_map_command.h"
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 
+#include "homography_teach_repeat/features/feature_extractor.h"
+#include "homography_teach_repeat/network/junction_measurement.h"
+#include "homography_teach_repeat/network/map_place_index.h"
 #include "homography_teach_repeat/network/route_graph.h"
 #include "homography_teach_repeat/network/route_map.h"
 
@@ -18,7 +23,10 @@ const char* const kUsage =
     "       route_map rename MAP OLD NEW\n"
     "       route_map remove MAP NAME\n"
     "       route_map remove-junctions MAP ROUTE[:KEYFRAME]\n"
-    "       route_map plan MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME [--json]\n";
+    "       route_map plan MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME [--json]\n"
+    "       route_map junction MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME\n"
+    "       route_map index MAP\n"
+    "       route_map locate MAP IMAGE [--json]\n";
 
 struct UsageError {
   std::string message;
@@ -185,6 +193,55 @@ int runRouteMapCommand(const std::vector<std::string>& raw_args, std::ostream& o
           if (i == 0 || change || i + 1 == path->keyframes.size()) {
             out << "  " << (change ? "junction to " : "") << toString(path->keyframes[i]) << "\n";
           }
+        }
+      }
+    } else if (command == "junction") {
+      expectArgs(4, 4);
+      RouteMap map = load(directory);
+      const auto junction =
+          measureJunction(map, parseRef(args[2], false), parseRef(args[3], false), RepeatOptions());
+      if (!junction) throw UsageError{junction.status().message()};
+      check(addJunction(map, *junction));
+      out << std::fixed << std::setprecision(3) << "junction " << toString(junction->from) << " -> "
+          << toString(junction->to) << ": x " << junction->to_in_from.x << " m, y " << junction->to_in_from.y
+          << " m, yaw " << junction->to_in_from.yaw * 180.0 / M_PI << " deg (sigma " << std::sqrt(junction->covariance(0, 0))
+          << ", " << std::sqrt(junction->covariance(1, 1)) << " m, " << std::sqrt(junction->covariance(2, 2)) * 180.0 / M_PI
+          << " deg), " << junction->inliers << " inliers; added\n";
+    } else if (command == "index") {
+      expectArgs(2, 2);
+      const RouteMap map = load(directory);
+      const auto start = std::chrono::steady_clock::now();
+      const auto index = buildMapPlaceIndex(map);
+      if (!index) throw UsageError{index.status().message()};
+      check(index->save(mapPlaceIndexPath(map)));
+      out << std::fixed << std::setprecision(1) << mapPlaceIndexPath(map) << ": " << index->size() << " keyframes, "
+          << index->words() << " words, built in "
+          << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s\n";
+    } else if (command == "locate") {
+      expectArgs(3, 3);
+      const RouteMap map = load(directory);
+      const auto index = loadMapPlaceIndex(map);
+      if (!index) throw UsageError{index.status().message()};
+      const cv::Mat image = cv::imread(args[2], cv::IMREAD_GRAYSCALE);
+      if (image.empty()) throw UsageError{"cannot read the image '" + args[2] + "'"};
+      FeatureOptions feature_options;  // the defaults, with the map's feature type
+      feature_options.type = map.routes.front().route.info.feature_type;
+      FeatureExtractor extractor(feature_options);
+      const auto features = extractor.extract(image);
+      if (!features) throw UsageError{args[2] + ": " + features.status().message()};
+      const auto candidates = index->query(features->descriptors, 10);
+      if (!candidates) throw UsageError{candidates.status().message()};
+      nlohmann::json doc = {{"image", args[2]}, {"features", features->keypoints.size()},
+                            {"candidates", nlohmann::json::array()}};
+      for (const PlaceCandidate& c : *candidates) {
+        doc["candidates"].push_back({{"keyframe", toString(keyframeOf(*index, c))}, {"similarity", c.similarity}});
+      }
+      if (json) {
+        out << doc.dump(2) << "\n";
+      } else {
+        out << std::fixed << std::setprecision(3);
+        for (const auto& c : doc["candidates"]) {
+          out << "  " << c["keyframe"].get<std::string>() << "  similarity " << c["similarity"].get<double>() << "\n";
         }
       }
     } else {

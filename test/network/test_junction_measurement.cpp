@@ -1,11 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "homography_teach_repeat/network/junction_measurement.h"
+#include "homography_teach_repeat/network/map_place_index.h"
+#include "homography_teach_repeat/network/route_map_command.h"
 #include "support/synthetic_route.h"
 
 using namespace homography_teach_repeat;
@@ -89,11 +95,62 @@ TEST_F(TwoRouteMap, NamesWhatIsMissing) {
   EXPECT_EQ(unknown.status().code(), StatusCode::kInvalidInput);
   EXPECT_NE(unknown.status().message().find("kitchen:0"), std::string::npos);
   EXPECT_FALSE(measureJunction(map, {"trunk", 99}, {"branch", 0}, RepeatOptions()).isOk());
-  // A keyframe whose features file is corrupt is named.
-  RouteMap broken = map;
-  const auto& keyframe = broken.find("branch")->route.keyframes.at(0);
-  std::ofstream(routeFilePath(broken.find("branch")->route.directory, keyframe.features_file)) << "garbage";
-  const auto corrupt = measureJunction(broken, {"trunk", 0}, {"branch", 0}, RepeatOptions());
+  // A keyframe whose features file is corrupt is named (the file restored after: the suite shares it).
+  const auto& keyframe = map.find("branch")->route.keyframes.at(0);
+  const std::string path = routeFilePath(map.find("branch")->route.directory, keyframe.features_file);
+  const std::string saved = path + ".saved";
+  std::filesystem::copy_file(path, saved, std::filesystem::copy_options::overwrite_existing);
+  std::ofstream(path) << "garbage";
+  const auto corrupt = measureJunction(map, {"trunk", 0}, {"branch", 0}, RepeatOptions());
+  std::filesystem::rename(saved, path);
   ASSERT_FALSE(corrupt.isOk());
   EXPECT_NE(corrupt.status().message().find("branch:0"), std::string::npos) << corrupt.status().message();
+}
+
+namespace {
+
+int runCommand(const std::vector<std::string>& args, std::string* out, std::string* err) {
+  std::ostringstream o;
+  std::ostringstream e;
+  const int status = runRouteMapCommand(args, o, e);
+  *out = o.str();
+  *err = e.str();
+  return status;
+}
+
+}  // namespace
+
+TEST_F(TwoRouteMap, TheToolMeasuresJunctionsIndexesAndLocates) {
+  RouteMap map = load();
+  std::string out;
+  std::string err;
+  ASSERT_EQ(runCommand({"junction", directory, "trunk:1", "branch:1"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("junction trunk:1 -> branch:1"), std::string::npos) << out;
+  EXPECT_EQ(loadRouteMap(directory)->junctions.size(), 1u);
+  EXPECT_EQ(runCommand({"junction", directory, "trunk:1", "nowhere:1"}, &out, &err), 2);
+
+  EXPECT_EQ(runCommand({"locate", directory, "/nonexistent.png"}, &out, &err), 2);
+  EXPECT_NE(err.find("place_index.yml"), std::string::npos) << err;  // not built yet
+  ASSERT_EQ(runCommand({"index", directory}, &out, &err), 0) << err;
+  const auto index = loadMapPlaceIndex(*loadRouteMap(directory));
+  ASSERT_TRUE(index.isOk()) << index.status().toString();
+  EXPECT_EQ(index->labels().front(), "trunk:0");
+
+  // A stored keyframe image proposes its own keyframe (or its twin on the other route) first.
+  const Route& trunk = map.find("trunk")->route;
+  const std::string image = routeFilePath(trunk.directory, trunk.keyframes.at(2).image_file);
+  ASSERT_EQ(runCommand({"locate", directory, image, "--json"}, &out, &err), 0) << err;
+  const auto doc = nlohmann::json::parse(out);
+  ASSERT_FALSE(doc["candidates"].empty());
+  const std::string first = doc["candidates"][0]["keyframe"];
+  EXPECT_TRUE(first == "trunk:2" || first == "branch:2") << out;
+  EXPECT_EQ(runCommand({"locate", directory, "/nonexistent.png"}, &out, &err), 2);
+  EXPECT_NE(err.find("cannot read the image"), std::string::npos) << err;
+
+  // After an edit the index is stale, and says so.
+  ASSERT_EQ(runCommand({"rename", directory, "branch", "side"}, &out, &err), 0) << err;
+  EXPECT_EQ(runCommand({"locate", directory, image}, &out, &err), 2);
+  EXPECT_NE(err.find("stale place index"), std::string::npos) << err;
+  ASSERT_EQ(runCommand({"rename", directory, "side", "branch"}, &out, &err), 0) << err;
+  ASSERT_EQ(runCommand({"remove-junctions", directory, "trunk"}, &out, &err), 0) << err;
 }

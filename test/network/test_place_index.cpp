@@ -133,17 +133,23 @@ TEST(PlaceIndex, BadInputIsRefused) {
 TEST(PlaceIndex, SavedAndLoadedItProposesTheSame) {
   const World world = makeWorld(100, 200, 20, false);
   cv::RNG rng(6);
-  const auto index = PlaceIndex::build(teach(world, 100, rng, 0.05));
+  auto index = PlaceIndex::build(teach(world, 100, rng, 0.05));
   ASSERT_TRUE(index.isOk());
   const std::string dir = network_test::temporaryDirectory();
   const std::string path = dir + "/place_index.yml";
-  ASSERT_TRUE(index->save(path).isOk());
+  PlaceIndex labelled = std::move(*index);
+  EXPECT_EQ(labelled.setLabels({"only one"}).code(), StatusCode::kInvalidInput);
+  std::vector<std::string> labels;
+  for (int p = 0; p < 100; ++p) labels.push_back("route:" + std::to_string(p));
+  ASSERT_TRUE(labelled.setLabels(labels).isOk());
+  ASSERT_TRUE(labelled.save(path).isOk());
   const auto loaded = PlaceIndex::load(path);
   ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
-  EXPECT_EQ(loaded->size(), index->size());
+  EXPECT_EQ(loaded->size(), labelled.size());
+  EXPECT_EQ(loaded->labels(), labels);
   for (int p = 0; p < 100; p += 7) {
     const cv::Mat query = visit(world, p, 0.6, 0.05, rng);
-    const auto a = index->query(query, 5);
+    const auto a = labelled.query(query, 5);
     const auto b = loaded->query(query, 5);
     ASSERT_EQ(a->size(), b->size());
     for (std::size_t i = 0; i < a->size(); ++i) {

@@ -52,6 +52,11 @@ class PlaceIndex {
   int words() const;
   int dimensions() const;
 
+  // What each keyframe is to the caller (a map keyframe, "route:index"), saved with the index;
+  // empty or one per keyframe. kInvalidInput for another count.
+  Status setLabels(std::vector<std::string> labels);
+  const std::vector<std::string>& labels() const;
+
   // Written atomically (OpenCV FileStorage, YAML); load checks the content and names the file.
   Status save(const std::string& path) const;
   static Expected<PlaceIndex> load(const std::string& path, const PlaceIndexOptions& options = {});

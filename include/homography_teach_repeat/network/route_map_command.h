@@ -6,6 +6,9 @@
 //   route_map remove MAP NAME                 the route, its junctions and its folder
 //   route_map remove-junctions MAP ROUTE[:KEYFRAME]
 //   route_map plan MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME [--json]
+//   route_map junction MAP FROM_ROUTE:KEYFRAME TO_ROUTE:KEYFRAME   measures it from the images, adds it
+//   route_map index MAP                       builds <map>/place_index.yml from every keyframe
+//   route_map locate MAP IMAGE [--json]       the 10 keyframes the place index proposes for an image
 //
 // Exit status: 0 done; 2 bad usage or a map/route problem (the message names the file or the
 // place); 3 for `plan` when the destination is not reachable.
