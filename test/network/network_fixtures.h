@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/eval/synthetic_places.h"
 #include "homography_teach_repeat/network/route_map.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -35,18 +36,7 @@ inline std::string temporaryDirectory() {
   return made;
 }
 
-inline RouteInfo tinyRouteInfo(FeatureType type = FeatureType::kOrb) {
-  RouteInfo info;
-  info.feature_type = type;
-  info.camera.width = 64;
-  info.camera.height = 48;
-  info.camera.fx = info.camera.fy = 50.0;
-  info.camera.cx = 32.0;
-  info.camera.cy = 24.0;
-  info.camera.distortion_model = "plumb_bob";
-  info.camera.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
-  return info;
-}
+using synthetic_places::tinyRouteInfo;
 
 // A route of keyframes at `poses`, written to `directory` (tiny images and features).
 inline Route writeTinyRoute(const std::string& directory, const std::vector<Pose2D>& poses,
@@ -81,7 +71,7 @@ inline MapRoute memoryRoute(const std::string& name, const std::vector<Pose2D>& 
   r.name = name;
   r.directory = "routes/" + name;
   r.route.directory = "/maps/test/routes/" + name;
-  r.route.info = tinyRouteInfo();
+  r.route.info = tinyRouteInfo(FeatureType::kOrb);
   for (std::size_t k = 0; k < poses.size(); ++k) {
     RouteKeyframe keyframe;
     keyframe.index = static_cast<int>(k);

@@ -7,6 +7,8 @@
 
 #include <vector>
 
+#include "homography_teach_repeat/teach_repeat/route.h"
+
 namespace homography_teach_repeat {
 namespace synthetic_places {
 
@@ -52,6 +54,21 @@ inline cv::Mat visit(const World& w, int p, double fraction, double noise, cv::R
     seen.push_back(d);
   }
   return seen;
+}
+
+// The route information of a map whose keyframe files only stand in (a 64x48 camera without
+// distortion): the map store's tests and evaluate_place_index's synthetic maps.
+inline RouteInfo tinyRouteInfo(FeatureType type) {
+  RouteInfo info;
+  info.feature_type = type;
+  info.camera.width = 64;
+  info.camera.height = 48;
+  info.camera.fx = info.camera.fy = 50.0;
+  info.camera.cx = 32.0;
+  info.camera.cy = 24.0;
+  info.camera.distortion_model = "plumb_bob";
+  info.camera.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
+  return info;
 }
 
 }  // namespace synthetic_places

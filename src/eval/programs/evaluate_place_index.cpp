@@ -81,15 +81,7 @@ void writeMap(const std::string& directory, int keyframes, cv::RNG& rng) {
   fs::create_directories(directory + "/routes");
   RouteMap map;
   map.directory = directory;
-  RouteInfo info;
-  info.feature_type = FeatureType::kOrb;
-  info.camera.width = 64;
-  info.camera.height = 48;
-  info.camera.fx = info.camera.fy = 50.0;
-  info.camera.cx = 32.0;
-  info.camera.cy = 24.0;
-  info.camera.distortion_model = "plumb_bob";
-  info.camera.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
+  const RouteInfo info = synthetic_places::tinyRouteInfo(FeatureType::kOrb);
   const cv::Mat image(48, 64, CV_8UC1, cv::Scalar(90));
   for (int first = 0, route = 0; first < keyframes; first += kKeyframesPerRoute, ++route) {
     const std::string name = "route" + std::to_string(route);
