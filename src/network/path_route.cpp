@@ -35,6 +35,7 @@ Expected<PathRoute> composePathRoute(const RouteMap& map, const NetworkPath& pat
   composed.route.directory = map.directory;
   composed.route.info = first->route.info;
   Pose2D route_frame;  // the current route's odometry frame in the path's frame
+  int previous_position = -1;  // of the previous step's keyframe in its route
   for (std::size_t i = 0; i < path.keyframes.size(); ++i) {
     const KeyframeRef& ref = path.keyframes[i];
     const MapRoute* source = map.find(ref.route);
@@ -46,7 +47,6 @@ Expected<PathRoute> composePathRoute(const RouteMap& map, const NetworkPath& pat
     const RouteKeyframe& keyframe = source->route.keyframes[static_cast<std::size_t>(position)];
     if (i > 0) {
       const KeyframeRef& previous = path.keyframes[i - 1];
-      const int previous_position = map.keyframePosition(previous);
       const auto count = static_cast<int>(source->route.keyframes.size());
       const bool next_on_route =
           previous.route == ref.route &&
@@ -80,6 +80,7 @@ Expected<PathRoute> composePathRoute(const RouteMap& map, const NetworkPath& pat
     }
     composed.route.keyframes.push_back(std::move(copy));
     composed.sources.push_back(ref);
+    previous_position = position;
   }
   return composed;
 }

@@ -70,13 +70,13 @@ struct PlaceIndex::Impl {
     return nearest;
   }
 
-  // Square-rooted idf-weighted word histogram, L2-normalised (zero for no descriptors).
-  cv::Mat histogram(const cv::Mat& rows) const {
+  // Square-rooted idf-weighted histogram of the words of an image's descriptors (nearestWords),
+  // L2-normalised (zero for no descriptors).
+  cv::Mat histogram(const cv::Mat& nearest) const {
     cv::Mat h = cv::Mat::zeros(1, vocabulary.rows, CV_32F);
-    if (rows.rows == 0) return h;
-    const cv::Mat nearest = nearestWords(rows);
+    if (nearest.rows == 0) return h;
     for (int r = 0; r < nearest.rows; ++r) h.at<float>(0, nearest.at<int>(r, 0)) += 1.0f;
-    cv::sqrt(h / static_cast<float>(rows.rows), h);
+    cv::sqrt(h / static_cast<float>(nearest.rows), h);
     h = h.mul(idf);
     const double norm = cv::norm(h);
     if (norm > 0.0) h /= norm;
@@ -164,16 +164,17 @@ Expected<PlaceIndex> PlaceIndex::build(const std::vector<cv::Mat>& place_descrip
              cv::KMEANS_PP_CENTERS, g.vocabulary);
   rng = saved;
 
-  // Inverse document frequency of each word over the keyframes.
+  // Each keyframe's words (once: only they are kept, not the descriptors as floats), then the
+  // inverse document frequency of each word over the keyframes.
   g.idf = cv::Mat::ones(1, words, CV_32F);
-  std::vector<cv::Mat> rows(place_descriptors.size());
+  std::vector<cv::Mat> place_words(place_descriptors.size());
   std::vector<int> documents(static_cast<std::size_t>(words), 0);
   int non_empty = 0;
   for (std::size_t p = 0; p < place_descriptors.size(); ++p) {
     if (place_descriptors[p].empty()) continue;
     ++non_empty;
-    rows[p] = asFloatRows(place_descriptors[p], g.binary);
-    const cv::Mat nearest = g.nearestWords(rows[p]);
+    place_words[p] = g.nearestWords(asFloatRows(place_descriptors[p], g.binary));
+    const cv::Mat& nearest = place_words[p];
     std::vector<bool> seen(static_cast<std::size_t>(words), false);
     for (int r = 0; r < nearest.rows; ++r) seen[static_cast<std::size_t>(nearest.at<int>(r, 0))] = true;
     for (int w = 0; w < words; ++w) documents[static_cast<std::size_t>(w)] += seen[static_cast<std::size_t>(w)] ? 1 : 0;
@@ -182,7 +183,9 @@ Expected<PlaceIndex> PlaceIndex::build(const std::vector<cv::Mat>& place_descrip
     g.idf.at<float>(0, w) = static_cast<float>(std::log((1.0 + non_empty) / (1.0 + documents[static_cast<std::size_t>(w)])) + 1.0);
   }
   cv::Mat histograms = cv::Mat::zeros(static_cast<int>(place_descriptors.size()), words, CV_32F);
-  for (std::size_t p = 0; p < rows.size(); ++p) g.histogram(rows[p]).copyTo(histograms.row(static_cast<int>(p)));
+  for (std::size_t p = 0; p < place_words.size(); ++p) {
+    g.histogram(place_words[p]).copyTo(histograms.row(static_cast<int>(p)));
+  }
 
   // PCA over the non-empty keyframes' histograms, when there are more of them than dimensions.
   const int dimensions = std::min(options.dimensions, words);
@@ -209,7 +212,7 @@ Expected<std::vector<PlaceCandidate>> PlaceIndex::query(const cv::Mat& descripto
     return invalid("place index: the image's descriptors are not of the map's type and width");
   }
   if (!g.binary && !cv::checkRange(descriptors)) return Status(StatusCode::kNotFinite, "place index: non-finite descriptor");
-  const cv::Mat v = g.project(g.histogram(asFloatRows(descriptors, g.binary)));
+  const cv::Mat v = g.project(g.histogram(g.nearestWords(asFloatRows(descriptors, g.binary))));
   if (cv::norm(v) == 0.0) return candidates;
   const int k = std::min<int>(count, static_cast<int>(g.indexed.size()));
   cv::Mat nearest;

@@ -23,6 +23,8 @@ const char* const kRoutesFolder = "routes";
 
 Status invalid(const std::string& message) { return Status(StatusCode::kInvalidInput, message); }
 
+std::string badRouteName(const std::string& name) { return "route name '" + name + "' is not 1 to 64 of [A-Za-z0-9_-]"; }
+
 std::string indexPath(const std::string& directory) { return directory + "/" + kMapIndexName; }
 
 // A route directory must stay inside the map: relative, no "..".
@@ -46,7 +48,7 @@ Status validate(const RouteMap& map, const std::string& where) {
   std::set<std::string> names;
   for (const MapRoute& r : map.routes) {
     if (!isValidRouteName(r.name)) {
-      return invalid(where + ": route name '" + r.name + "' is not 1 to 64 of [A-Za-z0-9_-]");
+      return invalid(where + ": " + badRouteName(r.name));
     }
     if (!names.insert(r.name).second) return invalid(where + ": route '" + r.name + "' is listed twice");
     if (!isInsideMap(r.directory)) {
@@ -194,7 +196,7 @@ Expected<RouteMap> loadRouteMap(const std::string& directory) {
       MapRoute entry;
       entry.name = reader.get<std::string>(node, "name");
       entry.directory = reader.get<std::string>(node, "directory");
-      if (!isValidRouteName(entry.name)) throw reader.error(node, "route name '" + entry.name + "' is not 1 to 64 of [A-Za-z0-9_-]");
+      if (!isValidRouteName(entry.name)) throw reader.error(node, badRouteName(entry.name));
       if (!isInsideMap(entry.directory)) {
         throw reader.error(node, "route '" + entry.name + "' has directory '" + entry.directory +
                                      "' outside the map (it must be relative, without '..')");
@@ -241,7 +243,7 @@ Status writeRouteMapIndex(const RouteMap& map) {
 Status migrateToRouteMap(const std::string& directory, const std::string& route_name) {
   std::error_code error;
   if (fs::is_regular_file(indexPath(directory), error)) return Status::ok();
-  if (!isValidRouteName(route_name)) return invalid("route name '" + route_name + "' is not 1 to 64 of [A-Za-z0-9_-]");
+  if (!isValidRouteName(route_name)) return invalid(badRouteName(route_name));
   auto map = loadSingleRouteFolder(directory);
   if (!map) return map.status();
   map->routes.front().name = route_name;
@@ -276,7 +278,7 @@ void deleteRouteFolder(const RouteMap& map, const std::string& relative) {
 
 Status commitMapRoute(RouteMap& map, const std::string& name, const std::string& relative_directory,
                       std::vector<Junction>* dropped) {
-  if (!isValidRouteName(name)) return invalid("route name '" + name + "' is not 1 to 64 of [A-Za-z0-9_-]");
+  if (!isValidRouteName(name)) return invalid(badRouteName(name));
   if (!isInsideMap(relative_directory)) {
     return invalid("route directory '" + relative_directory + "' is outside the map");
   }
@@ -314,7 +316,7 @@ Status commitMapRoute(RouteMap& map, const std::string& name, const std::string&
 
 Status renameMapRoute(RouteMap& map, const std::string& from, const std::string& to) {
   if (map.find(from) == nullptr) return invalid("no route '" + from + "' in the map at '" + map.directory + "'");
-  if (!isValidRouteName(to)) return invalid("route name '" + to + "' is not 1 to 64 of [A-Za-z0-9_-]");
+  if (!isValidRouteName(to)) return invalid(badRouteName(to));
   if (from == to) return Status::ok();
   if (map.find(to) != nullptr) return invalid("the map already has a route '" + to + "'");
   RouteMap updated = map;
