@@ -1,6 +1,8 @@
 #include "homography_teach_repeat/common/process_memory.h"
 
 #include <cstdlib>  // defines __GLIBC__ under glibc
+#include <fstream>
+#include <string>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -20,6 +22,15 @@ bool keepFreedMemoryForReuse() {
 #else
   return false;
 #endif
+}
+
+double peakResidentMiB() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return -1.0;
 }
 
 }  // namespace homography_teach_repeat

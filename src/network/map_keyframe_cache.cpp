@@ -1,6 +1,8 @@
 #include "homography_teach_repeat/network/map_keyframe_cache.h"
 
 #include <algorithm>
+#include <atomic>
+#include <thread>
 #include <utility>
 
 namespace homography_teach_repeat {
@@ -23,14 +25,40 @@ Expected<std::shared_ptr<const MapKeyframe>> MapKeyframeCache::get(const Keyfram
   }
   auto loaded = load(ref);
   if (!loaded) return loaded.status();
+  insert(key, *loaded);
+  return *loaded;
+}
+
+void MapKeyframeCache::insert(const std::string& key, std::shared_ptr<const MapKeyframe> keyframe) {
   ++loads_;
   if (entries_.size() >= capacity_) {
     entries_.erase(recency_.back());
     recency_.pop_back();
   }
   recency_.push_front(key);
-  entries_.emplace(key, Entry{*loaded, recency_.begin()});
-  return *loaded;
+  entries_.emplace(key, Entry{std::move(keyframe), recency_.begin()});
+}
+
+void MapKeyframeCache::prefetch(const std::vector<KeyframeRef>& refs, unsigned threads) {
+  std::vector<KeyframeRef> missing;
+  for (const KeyframeRef& ref : refs) {
+    const bool listed = std::any_of(missing.begin(), missing.end(), [&](const KeyframeRef& m) { return m == ref; });
+    if (!contains(ref) && !listed) missing.push_back(ref);
+  }
+  if (missing.size() < 2 || threads < 2) return;  // get() reads it as fast
+  std::vector<Expected<std::shared_ptr<const MapKeyframe>>> loaded(missing.size(), Status(StatusCode::kInvalidInput, ""));
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t i = next++; i < missing.size(); i = next++) loaded[i] = load(missing[i]);
+  };
+  std::vector<std::thread> workers;
+  const std::size_t count = std::min<std::size_t>(threads, missing.size()) - 1;  // this thread works too
+  for (std::size_t t = 0; t < count; ++t) workers.emplace_back(work);
+  work();
+  for (std::thread& w : workers) w.join();
+  for (std::size_t i = 0; i < missing.size(); ++i) {
+    if (loaded[i]) insert(toString(missing[i]), *loaded[i]);
+  }
 }
 
 Expected<std::shared_ptr<const MapKeyframe>> MapKeyframeCache::load(const KeyframeRef& ref) const {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <thread>
 #include <stdexcept>
 #include <utility>
 
@@ -116,6 +117,13 @@ void MapRelocalizer::reset() {
   last_odometry_.reset();
 }
 
+void MapRelocalizer::warmUp() {
+  const CameraCalibration& camera = map_->routes.front().route.info.camera;
+  cv::Mat noise(camera.height, camera.width, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  (void)estimators_.begin()->second->observe(noise, noise);
+}
+
 Expected<Relocalization> MapRelocalizer::update(const cv::Mat& image, const Pose2D& odometry) {
   if (image.empty()) return Status(StatusCode::kInvalidInput, "relocalization: the image is empty");
   if (!finitePose(odometry)) return Status(StatusCode::kInvalidInput, "relocalization: the odometry pose is not finite");
@@ -137,6 +145,7 @@ Expected<Relocalization> MapRelocalizer::update(const cv::Mat& image, const Pose
   last_odometry_ = odometry;
 
   Relocalization result;
+  const std::size_t loads_before = cache_.loads();
   const auto start = Clock::now();
   const auto gray = toGray8(image);
   if (!gray) return gray.status();
@@ -146,10 +155,24 @@ Expected<Relocalization> MapRelocalizer::update(const cv::Mat& image, const Pose
     if (frame.status().code() == StatusCode::kInvalidInput) return frame.status();
     for (PlaceHypothesis& h : hypotheses_) ++h.misses;
   } else {
-    checkHypotheses(*frame, &result);
-    const Status proposed = checkProposals(*frame, &result);
-    if (!proposed.isOk()) return proposed;
+    // The keyframes this frame checks, read side by side first: each hypothesis' nearest
+    // keyframe and the proposals (which must not duplicate them).
+    std::vector<KeyframeRef> targets;
+    for (const PlaceHypothesis& h : hypotheses_) {
+      const auto nearest = nearestKeyframes(h.keyframe.route, h.base_pose, 1, std::numeric_limits<double>::infinity());
+      targets.push_back(nearest.empty() ? h.keyframe : nearest.front());
+    }
+    auto proposed = selectProposals(frame->features.descriptors, targets, &result.timing);
+    if (!proposed) return proposed.status();
+    std::vector<KeyframeRef> all = targets;
+    all.insert(all.end(), proposed->begin(), proposed->end());
+    const auto read_start = Clock::now();
+    cache_.prefetch(all, std::max(1u, std::thread::hardware_concurrency()));
+    result.timing.checks_ms += millisecondsSince(read_start);
+    checkHypotheses(*frame, targets, &result);
+    checkProposals(*frame, *proposed, &result);
   }
+  result.timing.loads = static_cast<int>(cache_.loads() - loads_before);
   judge(&result);
   if (!frame) result.reason = "no features in this image (" + frame.status().message() + "); " + result.reason;
   return result;
@@ -158,10 +181,8 @@ Expected<Relocalization> MapRelocalizer::update(const cv::Mat& image, const Pose
 std::optional<RepeatEstimate> MapRelocalizer::check(const KeyframeRef& ref, const FrameObservations& frame,
                                                     Relocalization* result) {
   const auto start = Clock::now();
-  const bool cached = cache_.contains(ref);
   const auto keyframe = cache_.get(ref);
   ++result->timing.checks;
-  if (!cached && keyframe) ++result->timing.loads;
   std::optional<RepeatEstimate> found;
   if (!keyframe) {
     result->problems.push_back(keyframe.status().message());
@@ -182,12 +203,13 @@ std::optional<RepeatEstimate> MapRelocalizer::check(const KeyframeRef& ref, cons
   return found;
 }
 
-void MapRelocalizer::checkHypotheses(const FrameObservations& frame, Relocalization* result) {
-  for (PlaceHypothesis& h : hypotheses_) {
-    const auto nearest = nearestKeyframes(h.keyframe.route, h.base_pose, 1, std::numeric_limits<double>::infinity());
-    const auto estimate = nearest.empty() ? std::nullopt : check(nearest.front(), frame, result);
+void MapRelocalizer::checkHypotheses(const FrameObservations& frame, const std::vector<KeyframeRef>& targets,
+                                     Relocalization* result) {
+  for (std::size_t i = 0; i < hypotheses_.size(); ++i) {
+    PlaceHypothesis& h = hypotheses_[i];
+    const auto estimate = check(targets[i], frame, result);
     if (estimate && agrees(h.base_pose, estimate->base_pose, h.driven_since_support)) {
-      h.keyframe = nearest.front();
+      h.keyframe = targets[i];
       h.base_pose = estimate->base_pose;
       h.covariance = estimate->covariance;
       h.inliers = estimate->inliers;
@@ -215,24 +237,35 @@ void MapRelocalizer::checkHypotheses(const FrameObservations& frame, Relocalizat
   hypotheses_ = std::move(kept);
 }
 
-Status MapRelocalizer::checkProposals(const FrameObservations& frame, Relocalization* result) {
-  auto refs = proposals(frame.features.descriptors, &result->timing);
+Expected<std::vector<KeyframeRef>> MapRelocalizer::selectProposals(const cv::Mat& descriptors,
+                                                                   const std::vector<KeyframeRef>& targets,
+                                                                   RelocalizationTiming* timing) {
+  auto refs = proposals(descriptors, timing);
   if (!refs) return refs.status();
-  int checked = 0;
+  // Near (within 2 keyframes of) a place already being checked: the same view, nothing new.
+  const auto near = [&](const KeyframeRef& a, const KeyframeRef& b) {
+    return a.route == b.route && std::abs(map_->keyframePosition(a) - map_->keyframePosition(b)) <= 2;
+  };
+  std::vector<KeyframeRef> selected;
   for (const KeyframeRef& ref : *refs) {
-    if (checked >= options_.checks_per_frame) break;
-    const int position = map_->keyframePosition(ref);
-    const bool near_hypothesis = std::any_of(hypotheses_.begin(), hypotheses_.end(), [&](const PlaceHypothesis& h) {
-      return h.keyframe.route == ref.route && std::abs(map_->keyframePosition(h.keyframe) - position) <= 2;
-    });
-    if (near_hypothesis) continue;
-    const std::string label = toString(ref);
-    const auto failed = failed_at_frame_.find(label);
+    if (selected.size() >= static_cast<std::size_t>(options_.checks_per_frame)) break;
+    const auto failed = failed_at_frame_.find(toString(ref));
     if (failed != failed_at_frame_.end() && frame_ - failed->second <= options_.retry_after_frames) continue;
-    ++checked;
+    const auto is_near = [&](const KeyframeRef& other) { return near(ref, other); };
+    if (std::any_of(targets.begin(), targets.end(), is_near) || std::any_of(selected.begin(), selected.end(), is_near)) {
+      continue;
+    }
+    selected.push_back(ref);
+  }
+  return selected;
+}
+
+void MapRelocalizer::checkProposals(const FrameObservations& frame, const std::vector<KeyframeRef>& selected,
+                                    Relocalization* result) {
+  for (const KeyframeRef& ref : selected) {
     const auto estimate = check(ref, frame, result);
     if (!estimate) {
-      failed_at_frame_[label] = frame_;
+      failed_at_frame_[toString(ref)] = frame_;
       continue;
     }
     PlaceHypothesis h;
@@ -246,7 +279,6 @@ Status MapRelocalizer::checkProposals(const FrameObservations& frame, Relocaliza
     });
     if (!known) hypotheses_.push_back(h);
   }
-  return Status::ok();
 }
 
 Expected<std::vector<KeyframeRef>> MapRelocalizer::proposals(const cv::Mat& descriptors, RelocalizationTiming* timing) const {
@@ -289,23 +321,19 @@ bool MapRelocalizer::agrees(const Pose2D& predicted, const Pose2D& measured, dou
 
 bool MapRelocalizer::samePlace(const PlaceHypothesis& a, const PlaceHypothesis& b) const {
   if (a.keyframe.route == b.keyframe.route) return agrees(a.base_pose, b.base_pose, 0.0);
-  const auto poseOf = [&](const KeyframeRef& ref) {
-    const int p = map_->keyframePosition(ref);
-    return map_->find(ref.route)->route.keyframes[static_cast<std::size_t>(p)].pose;
-  };
   for (const Junction& j : map_->junctions) {
     const bool a_to_b = j.from.route == a.keyframe.route && j.to.route == b.keyframe.route;
     const bool b_to_a = j.from.route == b.keyframe.route && j.to.route == a.keyframe.route;
     if (!a_to_b && !b_to_a) continue;
-    if (map_->keyframePosition(j.from) < 0 || map_->keyframePosition(j.to) < 0) continue;
-    // The `to` route's frame in the `from` route's frame, through the junction.
-    const Pose2D from_keyframe = poseOf(j.from);
-    const Pose2D to_frame_in_from = from_keyframe.compose(j.to_in_from).compose(poseOf(j.to).inverse());
+    const auto to_frame_in_from = junctionRouteTransform(*map_, j);
+    if (!to_frame_in_from) continue;
     const PlaceHypothesis& in_from = a_to_b ? a : b;
     const PlaceHypothesis& in_to = a_to_b ? b : a;
-    const Pose2D carried = to_frame_in_from.compose(in_to.base_pose);
+    const Pose2D carried = to_frame_in_from->compose(in_to.base_pose);
     // A junction's small heading error grows with the distance from it.
-    const double away = std::hypot(carried.x - from_keyframe.x, carried.y - from_keyframe.y);
+    const Pose2D junction_point =
+        map_->find(j.from.route)->route.keyframes[static_cast<std::size_t>(map_->keyframePosition(j.from))].pose;
+    const double away = std::hypot(carried.x - junction_point.x, carried.y - junction_point.y);
     if (agrees(in_from.base_pose, carried, away)) return true;
   }
   return false;

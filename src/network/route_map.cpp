@@ -400,4 +400,43 @@ std::vector<std::string> listRouteMapOrphans(const RouteMap& map) {
   return orphans;
 }
 
+Expected<Pose2D> junctionRouteTransform(const RouteMap& map, const Junction& junction) {
+  const int from = map.keyframePosition(junction.from);
+  const int to = map.keyframePosition(junction.to);
+  if (from < 0 || to < 0) {
+    return Status(StatusCode::kInvalidInput, "junction " + toString(junction.from) + " -> " + toString(junction.to) +
+                                                 ": " + toString(from < 0 ? junction.from : junction.to) +
+                                                 " is not in the map");
+  }
+  const Pose2D& from_pose = map.find(junction.from.route)->route.keyframes[static_cast<std::size_t>(from)].pose;
+  const Pose2D& to_pose = map.find(junction.to.route)->route.keyframes[static_cast<std::size_t>(to)].pose;
+  return from_pose.compose(junction.to_in_from).compose(to_pose.inverse());
+}
+
+std::map<std::string, Pose2D> routeFramesInMap(const RouteMap& map, const std::string& root) {
+  std::map<std::string, Pose2D> frames;
+  if (map.routes.empty()) return frames;
+  const std::string start = root.empty() ? map.routes.front().name : root;
+  if (map.find(start) == nullptr) return frames;
+  frames[start] = Pose2D();
+  std::vector<std::string> frontier{start};
+  while (!frontier.empty()) {
+    std::vector<std::string> next;
+    for (const std::string& route : frontier) {
+      for (const Junction& j : map.junctions) {
+        const bool forwards = j.from.route == route && frames.count(j.to.route) == 0;
+        const bool backwards = j.to.route == route && frames.count(j.from.route) == 0;
+        if (!forwards && !backwards) continue;
+        const auto transform = junctionRouteTransform(map, j);
+        if (!transform) continue;
+        const std::string& other = forwards ? j.to.route : j.from.route;
+        frames[other] = frames[route].compose(forwards ? *transform : transform->inverse());
+        next.push_back(other);
+      }
+    }
+    frontier = std::move(next);
+  }
+  return frames;
+}
+
 }  // namespace homography_teach_repeat

@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/network/junction_measurement.h"
 #include "homography_teach_repeat/network/map_place_index.h"
+#include "homography_teach_repeat/network/map_relocalizer.h"
 #include "homography_teach_repeat/network/route_graph.h"
 #include "homography_teach_repeat/network/route_map.h"
 
@@ -20,6 +22,7 @@ namespace {
 const char* const kUsage =
     "usage: route_map list MAP [--json]\n"
     "       route_map migrate MAP [NAME]\n"
+    "       route_map add MAP NAME ROUTE_DIR\n"
     "       route_map rename MAP OLD NEW\n"
     "       route_map remove MAP NAME\n"
     "       route_map remove-junctions MAP ROUTE[:KEYFRAME]\n"
@@ -150,6 +153,39 @@ int runRouteMapCommand(const std::vector<std::string>& raw_args, std::ostream& o
       expectArgs(2, 3);
       check(migrateToRouteMap(directory, args.size() == 3 ? args[2] : "route"));
       out << "map.yaml written in " << directory << "\n";
+    } else if (command == "add") {
+      expectArgs(4, 4);
+      namespace fs = std::filesystem;
+      const std::string& name = args[2];
+      const auto source = loadRoute(args[3]);
+      if (!source) throw UsageError{source.status().message()};
+      RouteMap map;
+      map.directory = directory;
+      std::error_code error;
+      if (fs::exists(fs::path(directory) / "map.yaml", error) || fs::exists(fs::path(directory) / "route.yaml", error)) {
+        map = load(directory);
+      } else {
+        fs::create_directories(directory, error);
+        if (error) throw UsageError{"cannot create the map folder '" + directory + "': " + error.message()};
+      }
+      if (!isValidRouteName(name)) throw UsageError{"'" + name + "' is not a route name ([A-Za-z0-9_-]+)"};
+      const bool replacing = map.find(name) != nullptr;
+      // Copied into a folder the index does not name yet, then committed (a crash leaves an orphan).
+      const std::string relative = newRouteDirectory(map, name);
+      fs::create_directories((fs::path(directory) / relative).parent_path(), error);
+      fs::copy(args[3], fs::path(directory) / relative, fs::copy_options::recursive, error);
+      if (error) throw UsageError{"cannot copy '" + args[3] + "' into the map: " + error.message()};
+      std::vector<Junction> dropped;
+      const Status committed = commitMapRoute(map, name, relative, &dropped);
+      if (!committed.isOk()) {
+        fs::remove_all(fs::path(directory) / relative, error);
+        throw UsageError{committed.message()};
+      }
+      out << (replacing ? "replaced " : "added ") << name << " (" << source->keyframes.size() << " keyframes) as "
+          << relative << "\n";
+      for (const Junction& j : dropped) {
+        out << "  junction " << toString(j.from) << " -> " << toString(j.to) << " dropped (its keyframe is gone)\n";
+      }
     } else if (command == "rename") {
       expectArgs(4, 4);
       RouteMap map = load(directory);
@@ -220,29 +256,52 @@ int runRouteMapCommand(const std::vector<std::string>& raw_args, std::ostream& o
     } else if (command == "locate") {
       expectArgs(3, 3);
       const RouteMap map = load(directory);
-      const auto index = loadMapPlaceIndex(map);
+      auto index = loadMapPlaceIndex(map);
       if (!index) throw UsageError{index.status().message()};
       const cv::Mat image = cv::imread(args[2], cv::IMREAD_GRAYSCALE);
       if (image.empty()) throw UsageError{"cannot read the image '" + args[2] + "'"};
-      FeatureOptions feature_options;  // the defaults, with the map's feature type
+      RepeatOptions repeat;  // the defaults, with the map's feature type (the routes' info)
+      FeatureOptions feature_options;
       feature_options.type = map.routes.front().route.info.feature_type;
-      FeatureExtractor extractor(feature_options);
-      const auto features = extractor.extract(image);
+      feature_options.max_features = repeat.max_features;
+      const auto features = FeatureExtractor(feature_options).extract(image);
       if (!features) throw UsageError{args[2] + ": " + features.status().message()};
-      const auto candidates = index->query(features->descriptors, 10);
+      const auto candidates = index->query(features->descriptors, RelocalizationOptions().candidates);
       if (!candidates) throw UsageError{candidates.status().message()};
       nlohmann::json doc = {{"image", args[2]}, {"features", features->keypoints.size()},
-                            {"candidates", nlohmann::json::array()}};
+                            {"candidates", nlohmann::json::array()}, {"places", nlohmann::json::array()}};
       for (const PlaceCandidate& c : *candidates) {
         doc["candidates"].push_back({{"keyframe", toString(keyframeOf(*index, c))}, {"similarity", c.similarity}});
       }
+      // The candidates' geometry: every one checked in this one frame (relocalization's first frame).
+      RelocalizationOptions relocalization;
+      relocalization.checks_per_frame = relocalization.candidates;
+      auto relocalizer = MapRelocalizer::create(map, std::move(*index), repeat, relocalization);
+      if (!relocalizer) throw UsageError{relocalizer.status().message()};
+      const auto located = relocalizer->update(image, Pose2D());
+      if (!located) throw UsageError{args[2] + ": " + located.status().message()};
+      for (const PlaceHypothesis& h : located->hypotheses) {
+        doc["places"].push_back({{"keyframe", toString(h.keyframe)},
+                                 {"x", h.base_pose.x}, {"y", h.base_pose.y}, {"yaw", h.base_pose.yaw},
+                                 {"sigma_xy_m", std::sqrt(std::max(0.0, h.covariance(0, 0) + h.covariance(1, 1)))},
+                                 {"inliers", h.inliers}});
+      }
+      doc["problems"] = located->problems;
       if (json) {
         out << doc.dump(2) << "\n";
       } else {
-        out << std::fixed << std::setprecision(3);
+        out << std::fixed << std::setprecision(3) << "candidates (place index):\n";
         for (const auto& c : doc["candidates"]) {
           out << "  " << c["keyframe"].get<std::string>() << "  similarity " << c["similarity"].get<double>() << "\n";
         }
+        out << "places whose geometry fits (base_link in the route's frame):\n";
+        if (doc["places"].empty()) out << "  none\n";
+        for (const auto& p : doc["places"]) {
+          out << "  " << p["keyframe"].get<std::string>() << "  x " << p["x"].get<double>() << " m  y "
+              << p["y"].get<double>() << " m  yaw " << p["yaw"].get<double>() << " rad  inliers "
+              << p["inliers"].get<int>() << "\n";
+        }
+        for (const std::string& problem : located->problems) out << "  problem: " << problem << "\n";
       }
     } else {
       throw UsageError{"unknown command '" + command + "'"};

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "homography_teach_repeat/network/junction_measurement.h"
+#include "homography_teach_repeat/network/map_audit.h"
 #include "homography_teach_repeat/network/map_place_index.h"
 #include "homography_teach_repeat/network/route_map_command.h"
 #include "support/synthetic_route.h"
@@ -47,6 +48,9 @@ struct TwoRouteMap : ::testing::Test {
     const SyntheticWall wall;
     teachSyntheticRoute(wall, FeatureType::kSift, 8, directory + "/routes/trunk");
     teachBranch(wall, directory + "/routes/branch");
+    SyntheticWall elsewhere;  // another wall: nothing in common with the trunk's
+    elsewhere.texture = makeTexture(640, 480, 29);
+    teachSyntheticRoute(elsewhere, FeatureType::kSift, 8, directory + "/routes/elsewhere");
   }
   static void TearDownTestSuite() { std::filesystem::remove_all(directory); }
   static RouteMap load() {
@@ -144,6 +148,12 @@ TEST_F(TwoRouteMap, TheToolMeasuresJunctionsIndexesAndLocates) {
   ASSERT_FALSE(doc["candidates"].empty());
   const std::string first = doc["candidates"][0]["keyframe"];
   EXPECT_TRUE(first == "trunk:2" || first == "branch:2") << out;
+  // Its geometry fits: the keyframe's own pose (or its twin's, 5 cm away), from the image.
+  ASSERT_FALSE(doc["places"].empty()) << out;
+  const Pose2D& taught = trunk.keyframes.at(2).pose;
+  EXPECT_NEAR(doc["places"][0]["x"].get<double>(), taught.x, 0.08) << out;
+  EXPECT_NEAR(doc["places"][0]["y"].get<double>(), taught.y, 0.08) << out;
+  EXPECT_GT(doc["places"][0]["inliers"].get<int>(), 50) << out;
   EXPECT_EQ(runCommand({"locate", directory, "/nonexistent.png"}, &out, &err), 2);
   EXPECT_NE(err.find("cannot read the image"), std::string::npos) << err;
 
@@ -154,3 +164,42 @@ TEST_F(TwoRouteMap, TheToolMeasuresJunctionsIndexesAndLocates) {
   ASSERT_EQ(runCommand({"rename", directory, "side", "branch"}, &out, &err), 0) << err;
   ASSERT_EQ(runCommand({"remove-junctions", directory, "trunk"}, &out, &err), 0) << err;
 }
+
+TEST_F(TwoRouteMap, TheAuditNamesJunctionsTooWeakToCrossAndRoutesNoWayReaches) {
+  RouteMap map = load();
+  ASSERT_TRUE(commitMapRoute(map, "elsewhere", "routes/elsewhere").isOk());
+  const auto measured = measureJunction(map, {"trunk", 1}, {"branch", 1}, RepeatOptions());
+  ASSERT_TRUE(measured.isOk()) << measured.status().toString();
+  ASSERT_TRUE(addJunction(map, *measured).isOk());
+  Junction shifted = *measured;  // the same two views, stored 0.3 m off
+  shifted.from = {"trunk", 2};
+  shifted.to = {"branch", 2};
+  shifted.to_in_from = shifted.to_in_from.compose(Pose2D(0.3, 0.0, 0.0));
+  ASSERT_TRUE(addJunction(map, shifted).isOk());
+  Junction blind = *measured;  // views of two different walls
+  blind.from = {"trunk", 0};
+  blind.to = {"elsewhere", 0};
+  ASSERT_TRUE(addJunction(map, blind).isOk());
+
+  auto audit = auditMap(map, RepeatOptions());
+  ASSERT_TRUE(audit.isOk()) << audit.status().toString();
+  ASSERT_EQ(audit->junctions.size(), 3u);
+  EXPECT_TRUE(audit->junctions[0].weaknesses.empty()) << audit->junctions[0].weaknesses.front();
+  EXPECT_LT(audit->junctions[0].disagreement_m, 0.01);
+  ASSERT_EQ(audit->junctions[1].weaknesses.size(), 1u);
+  EXPECT_NE(audit->junctions[1].weaknesses[0].find("from the stored pose"), std::string::npos);
+  EXPECT_NEAR(audit->junctions[1].disagreement_m, 0.3, 0.02);
+  EXPECT_FALSE(audit->junctions[2].measured);
+  EXPECT_FALSE(audit->junctions[2].weaknesses.empty());
+  EXPECT_EQ(audit->weak_junctions, 2);
+  EXPECT_EQ(audit->groups.size(), 1u);
+
+  // Without the blind junction, "elsewhere" is joined to nothing: no way reaches it.
+  ASSERT_TRUE(removeJunctions(map, {"elsewhere", -1}).isOk());
+  audit = auditMap(map, RepeatOptions());
+  ASSERT_TRUE(audit.isOk());
+  EXPECT_EQ(audit->groups.size(), 2u);
+  ASSERT_FALSE(audit->notes.empty());
+  EXPECT_NE(audit->notes.front().find("no way leads"), std::string::npos) << audit->notes.front();
+}
+

@@ -216,3 +216,26 @@ TEST(PathRoute, RefusesAStepThatIsNoWay) {
   EXPECT_NE(composePathRoute(map, unknown).status().message().find("trunk:30 is not in the map"), std::string::npos);
   EXPECT_FALSE(composePathRoute(map, NetworkPath{}).isOk());
 }
+
+TEST(RouteFramesInMap, PlacesEveryJoinedRouteInTheFirstRoutesFrame) {
+  const TWorld world;
+  RouteMap map = world.map();
+  map.routes.push_back(memoryRoute("island", straight(Pose2D(9.0, 9.0, 0.0), 3)));  // no junction
+  const auto frames = routeFramesInMap(map);
+  ASSERT_EQ(frames.size(), 4u);  // not the island
+  EXPECT_EQ(frames.count("island"), 0u);
+  // The trunk's odometry frame is the world's; the others' are their odometry frames in it.
+  const std::map<std::string, Pose2D> truth{{"trunk", Pose2D()}, {"room_a", world.room_a_odometry},
+                                            {"room_b", Pose2D()}, {"hall", world.hall_odometry}};
+  for (const auto& [name, frame] : truth) {
+    ASSERT_EQ(frames.count(name), 1u) << name;
+    EXPECT_NEAR(frames.at(name).x, frame.x, 1e-9) << name;
+    EXPECT_NEAR(frames.at(name).y, frame.y, 1e-9) << name;
+    EXPECT_NEAR(wrapToPi(frames.at(name).yaw - frame.yaw), 0.0, 1e-9) << name;
+  }
+  // From another root, the same geometry: the trunk's frame in the hall's.
+  const auto from_hall = routeFramesInMap(map, "hall");
+  EXPECT_NEAR(from_hall.at("trunk").x, world.hall_odometry.inverse().x, 1e-9);
+  EXPECT_NEAR(from_hall.at("trunk").y, world.hall_odometry.inverse().y, 1e-9);
+  EXPECT_TRUE(routeFramesInMap(map, "nowhere").empty());
+}

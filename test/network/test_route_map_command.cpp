@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -101,4 +102,36 @@ TEST(RouteMapCommand, BadUsageAndBadMapsExitTwoWithTheReason) {
   const Result nothing = run({"list", empty});
   EXPECT_EQ(nothing.status, 2);
   EXPECT_NE(nothing.err.find("neither map.yaml nor route.yaml"), std::string::npos);
+}
+
+TEST(RouteMapCommand, AddCopiesARouteIntoANewOrExistingMap) {
+  const std::string taught = temporaryDirectory() + "/corridor";
+  writeTinyRoute(taught, straight(Pose2D(), 4));
+  const std::string dir = temporaryDirectory() + "/building";  // does not exist yet
+  Result added = run({"add", dir, "corridor", taught});
+  ASSERT_EQ(added.status, 0) << added.err;
+  EXPECT_NE(added.out.find("added corridor (4 keyframes) as routes/corridor"), std::string::npos) << added.out;
+  added = run({"add", dir, "lab", taught});
+  ASSERT_EQ(added.status, 0) << added.err;
+  auto map = loadRouteMap(dir);
+  ASSERT_TRUE(map.isOk()) << map.status().toString();
+  ASSERT_EQ(map->routes.size(), 2u);
+  EXPECT_EQ(map->find("lab")->directory, "routes/lab");
+  EXPECT_EQ(map->find("lab")->route.keyframes.size(), 4u);
+  // Again under a taken name: replaced (re-taught), in a new folder; the old one is gone.
+  added = run({"add", dir, "lab", taught});
+  ASSERT_EQ(added.status, 0) << added.err;
+  EXPECT_NE(added.out.find("replaced lab"), std::string::npos) << added.out;
+  map = loadRouteMap(dir);
+  EXPECT_EQ(map->find("lab")->directory, "routes/lab.2");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/routes/lab"));
+  // A bad name, a missing route, a route of another feature type: refused, the map unchanged.
+  EXPECT_EQ(run({"add", dir, "no good", taught}).status, 2);
+  EXPECT_EQ(run({"add", dir, "x", "/nonexistent/route"}).status, 2);
+  const std::string other = temporaryDirectory() + "/akaze";
+  writeTinyRoute(other, straight(Pose2D(), 3), FeatureType::kAkaze);
+  const Result refused = run({"add", dir, "akaze", other});
+  EXPECT_EQ(refused.status, 2);
+  EXPECT_EQ(loadRouteMap(dir)->routes.size(), 2u);
+  EXPECT_TRUE(listRouteMapOrphans(*loadRouteMap(dir)).empty());
 }

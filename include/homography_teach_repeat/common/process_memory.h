@@ -19,4 +19,8 @@ namespace homography_teach_repeat {
 // before.
 bool keepFreedMemoryForReuse();
 
+// The peak resident memory of this process so far [MiB] (VmHWM of /proc/self/status); -1 where
+// the system does not tell (not Linux).
+double peakResidentMiB();
+
 }  // namespace homography_teach_repeat

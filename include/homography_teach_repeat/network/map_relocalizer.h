@@ -44,7 +44,7 @@ namespace homography_teach_repeat {
 
 struct RelocalizationOptions {
   int candidates = 10;             // keyframes the place index proposes per frame
-  int checks_per_frame = 4;        // of proposed keyframes (hypotheses are checked besides)
+  int checks_per_frame = 3;        // of proposed keyframes (hypotheses are checked besides)
   int confirmations = 3;           // frames the place must be supported in
   double confirmation_distance = 0.3;  // [m] driven since the place was first seen, or
   double confirmation_turn = 0.35;     // [rad] turned (in place)
@@ -115,6 +115,10 @@ class MapRelocalizer {
   void clearHint() { hint_.reset(); }
   // Forgets the hypotheses and the hint (the robot was carried elsewhere).
   void reset();
+  // One feature detection on a noise image of the map camera's size: a process's first detection
+  // takes several times as long as the next (fresh memory, docs/design.md "Frame buffers"), so a
+  // node does it at start-up rather than in its first frame.
+  void warmUp();
 
   const RouteMap& map() const { return *map_; }
   const MapKeyframeCache& keyframes() const { return cache_; }
@@ -126,8 +130,13 @@ class MapRelocalizer {
   // The keyframe's pose for this frame: its taught view, then its learned views, until one gives a
   // pose with covariance; nullopt when none does.
   std::optional<RepeatEstimate> check(const KeyframeRef& ref, const FrameObservations& frame, Relocalization* result);
-  void checkHypotheses(const FrameObservations& frame, Relocalization* result);
-  Status checkProposals(const FrameObservations& frame, Relocalization* result);
+  // Hypothesis i against targets[i] (its nearest keyframe now); drops those missed too often.
+  void checkHypotheses(const FrameObservations& frame, const std::vector<KeyframeRef>& targets, Relocalization* result);
+  // Up to checks_per_frame proposals, most similar first, none near a target or another chosen one
+  // nor failed in the last retry_after_frames frames.
+  Expected<std::vector<KeyframeRef>> selectProposals(const cv::Mat& descriptors, const std::vector<KeyframeRef>& targets,
+                                                     RelocalizationTiming* timing);
+  void checkProposals(const FrameObservations& frame, const std::vector<KeyframeRef>& selected, Relocalization* result);
   Expected<std::vector<KeyframeRef>> proposals(const cv::Mat& descriptors, RelocalizationTiming* timing) const;
   // The keyframes of `route` nearest to `pose` (distance plus 1 m per radian of heading), nearest first.
   std::vector<KeyframeRef> nearestKeyframes(const std::string& route, const Pose2D& pose, std::size_t count,

@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -127,5 +128,15 @@ Expected<int> removeJunctions(RouteMap& map, const KeyframeRef& ref);
 
 // Folders under routes/ that the index does not name (left by a crash during a teach or a removal).
 std::vector<std::string> listRouteMapOrphans(const RouteMap& map);
+
+// The odometry frame of the junction's `to` route in that of its `from` route: the `from`
+// keyframe's pose ∘ to_in_from ∘ the `to` keyframe's pose⁻¹. kInvalidInput when either keyframe is
+// not in the map.
+Expected<Pose2D> junctionRouteTransform(const RouteMap& map, const Junction& junction);
+
+// Every route's odometry frame in one map frame: that of `root` (empty: the first route), the others
+// carried through the junctions, fewest junctions first. Routes no junction joins to the root are
+// absent (they have no common frame with it).
+std::map<std::string, Pose2D> routeFramesInMap(const RouteMap& map, const std::string& root = "");
 
 }  // namespace homography_teach_repeat

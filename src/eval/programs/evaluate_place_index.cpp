@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "homography_teach_repeat/common/command_line.h"
+#include "homography_teach_repeat/common/process_memory.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/eval/synthetic_places.h"
 #include "homography_teach_repeat/network/place_index.h"
@@ -41,16 +42,6 @@ constexpr double kSpacing = 0.5;
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// VmHWM (peak resident) of this process [MiB], from /proc/self/status; -1 where unavailable.
-double peakResidentMiB() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return -1.0;
 }
 
 // --measure-load DIR: load the map and its place index, print {"load_s", "peak_rss_mib"}.

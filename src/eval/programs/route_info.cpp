@@ -4,16 +4,23 @@
 // position uncertainty, weak keyframes marked; per-keyframe figures along the route).
 // `route_info --migrate DIR` rewrites a route's index in the current format (a version-1 route
 // becomes version 2, docs/route_format.md).
+// A map of routes (a folder with map.yaml, docs/map_format.md) is audited whole: each route as above
+// into OUT/<route>/, and the map's junctions (network/map_audit.h: each measured again from the two
+// keyframes' views; those too weak to relocalize across named) and the groups of routes no junction
+// joins into OUT/map_audit.json and OUT/map_audit.png (the routes from above in the map frame).
 #include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/eval/plots.h"
+#include "homography_teach_repeat/network/map_audit.h"
+#include "homography_teach_repeat/network/route_map.h"
 #include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 
@@ -58,6 +65,161 @@ nlohmann::json toJson(const KeyframeAudit& a) {
     k["prediction_problem"] = a.prediction_problem;
   }
   return k;
+}
+
+// The audit of one route: its table on stdout, OUT/route_audit.json (and .png with `plots`).
+int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shift_heading, const std::string& out,
+                  bool plots) {
+  const auto audit = auditRoute(route, options);
+  if (!audit) {
+    std::cerr << "route_info: " << audit.status().toString() << "\n";
+    return 1;
+  }
+  // The seasonal heading fix's material (keyframe_shift_heading.h): its features per keyframe and
+  // its vote's support against the next keyframe.
+  std::vector<ShiftHeadingAudit> shift;
+  if (shift_heading) shift = auditShiftHeading(route, PinholeCamera(route.info.camera));
+  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s %11s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
+              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "shift f/vote", "weak");
+  for (const KeyframeAudit& a : audit->keyframes) {
+    double position = NAN, heading = NAN;
+    if (a.predicted_covariance) {
+      position = std::sqrt(std::max((*a.predicted_covariance)(0, 0), (*a.predicted_covariance)(1, 1)));
+      heading = std::sqrt((*a.predicted_covariance)(2, 2)) * 180.0 / M_PI;
+    }
+    const std::string alias = a.alias_keyframe >= 0 ? std::to_string(a.alias_inliers) + "@" + std::to_string(a.alias_keyframe) : "-";
+    std::string weak;
+    for (const auto& w : a.fast_hd_weaknesses) weak += "fast_hd: " + w + "; ";
+    for (const auto& w : a.mu_weaknesses) weak += "mu: " + w + "; ";
+    std::string seasonal = "-";
+    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
+      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
+      seasonal = std::to_string(h.features) + "/" + std::to_string(h.support) + (h.ambiguous ? "?" : "");
+    }
+    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f %11s  %s\n", a.keyframe, a.pose.x, a.pose.y,
+                a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
+                a.has_plane ? a.plane_distance_m : NAN, seasonal.c_str(), weak.c_str());
+  }
+  for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
+  std::printf("%d keyframes; weak for fast_hd: %d, for mu: %d\n", static_cast<int>(audit->keyframes.size()),
+              audit->weak_for_fast_hd, audit->weak_for_mu);
+
+  nlohmann::json document;
+  document["kind"] = "route_audit";
+  document["route"] = route.directory;
+  document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
+                       {"pixel_sigma", options.repeat.pose.pixel_sigma_px},
+                       {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
+                       {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
+                       {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
+                       {"heading_sigma", options.repeat.pose.heading_sigma_rad},
+                       {"min_plane_features", options.min_plane_features},
+                       {"max_position_sigma_m", options.max_position_sigma_m},
+                       {"max_heading_sigma_rad", options.max_heading_sigma_rad},
+                       {"max_alias_ratio", options.max_alias_ratio}, {"min_lines", options.min_lines}};
+  document["summary"] = {{"keyframes", audit->keyframes.size()}, {"weak_for_fast_hd", audit->weak_for_fast_hd},
+                         {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
+  for (const KeyframeAudit& a : audit->keyframes) {
+    nlohmann::json k = toJson(a);
+    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
+      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
+      k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
+                            {"ambiguous", h.ambiguous}, {"problem", h.problem}};
+    }
+    document["keyframes"].push_back(k);
+  }
+  std::error_code error;
+  std::filesystem::create_directories(out, error);
+  const std::string json_path = out + "/route_audit.json";
+  std::ofstream file(json_path);
+  file << std::setw(1) << document << "\n";
+  file.close();
+  if (!file) {
+    std::cerr << "route_info: cannot write " << json_path << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << json_path << "\n";
+  std::fflush(stdout);
+  if (plots && eval::drawPlots(json_path, "route_info") != 0) return 1;
+  return 0;
+}
+
+// The map's junctions and groups: a table on stdout, OUT/map_audit.json (and .png with `plots`).
+int auditJunctions(const RouteMap& map, const RepeatOptions& repeat, const std::string& out, bool plots) {
+  const auto audit = auditMap(map, repeat);
+  if (!audit) {
+    std::cerr << "route_info: " << audit.status().toString() << "\n";
+    return 1;
+  }
+  std::printf("\n== junctions\n%-24s %-24s %8s %10s %10s %12s  %s\n", "from", "to", "inliers", "sigma [m]",
+              "sigma [deg]", "off [m/deg]", "weak");
+  nlohmann::json document;
+  document["kind"] = "map_audit";
+  document["map"] = map.directory;
+  const auto frames = routeFramesInMap(map);
+  document["frame"] = map.routes.front().name;
+  for (const MapRoute& r : map.routes) {
+    nlohmann::json route = {{"name", r.name}, {"keyframes", r.route.keyframes.size()}, {"in_map_frame", frames.count(r.name) > 0}};
+    route["poses"] = nlohmann::json::array();
+    if (frames.count(r.name) > 0) {
+      for (const RouteKeyframe& k : r.route.keyframes) {
+        const Pose2D p = frames.at(r.name).compose(k.pose);
+        route["poses"].push_back({p.x, p.y, p.yaw});
+      }
+    }
+    document["routes"].push_back(route);
+  }
+  document["junctions"] = nlohmann::json::array();
+  for (const JunctionAudit& j : audit->junctions) {
+    std::string weak;
+    for (const std::string& w : j.weaknesses) weak += w + "; ";
+    const double sigma = std::sqrt(std::max(j.covariance(0, 0), j.covariance(1, 1)));
+    const double heading_deg = std::sqrt(j.covariance(2, 2)) * 180.0 / M_PI;
+    std::printf("%-24s %-24s %8d %10.4f %10.3f %5.3f/%5.2f  %s\n", toString(j.stored.from).c_str(),
+                toString(j.stored.to).c_str(), j.inliers, j.measured ? sigma : NAN, j.measured ? heading_deg : NAN,
+                j.disagreement_m, j.disagreement_rad * 180.0 / M_PI, weak.empty() ? "-" : weak.c_str());
+    nlohmann::json row = {{"from", toString(j.stored.from)}, {"to", toString(j.stored.to)},
+                          {"stored", {j.stored.to_in_from.x, j.stored.to_in_from.y, j.stored.to_in_from.yaw}},
+                          {"measured", j.measured}, {"inliers", j.inliers}, {"weaknesses", j.weaknesses}};
+    if (j.measured) {
+      row["measured_to_in_from"] = {j.measured_to_in_from.x, j.measured_to_in_from.y, j.measured_to_in_from.yaw};
+      row["sigma_m"] = sigma;
+      row["sigma_heading_rad"] = std::sqrt(j.covariance(2, 2));
+      row["disagreement_m"] = j.disagreement_m;
+      row["disagreement_rad"] = j.disagreement_rad;
+    } else {
+      row["problem"] = j.problem;
+    }
+    // Where it is, in the map frame (when its route is).
+    const MapRoute* from = map.find(j.stored.from.route);
+    const int position = map.keyframePosition(j.stored.from);
+    if (from != nullptr && position >= 0 && frames.count(from->name) > 0) {
+      const Pose2D at = frames.at(from->name).compose(from->route.keyframes[static_cast<std::size_t>(position)].pose);
+      row["position"] = {at.x, at.y};
+    }
+    document["junctions"].push_back(row);
+  }
+  for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
+  std::printf("%zu routes, %zu junctions; weak junctions: %d; groups of joined routes: %zu\n", map.routes.size(),
+              audit->junctions.size(), audit->weak_junctions, audit->groups.size());
+  document["groups"] = audit->groups;
+  document["summary"] = {{"routes", map.routes.size()}, {"junctions", audit->junctions.size()},
+                         {"weak_junctions", audit->weak_junctions}, {"groups", audit->groups.size()},
+                         {"notes", audit->notes}};
+  std::error_code error;
+  std::filesystem::create_directories(out, error);
+  const std::string json_path = out + "/map_audit.json";
+  std::ofstream file(json_path);
+  file << std::setw(1) << document << "\n";
+  file.close();
+  if (!file) {
+    std::cerr << "route_info: cannot write " << json_path << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << json_path << "\n";
+  std::fflush(stdout);
+  if (plots && eval::drawPlots(json_path, "route_info") != 0) return 1;
+  return 0;
 }
 
 }  // namespace
@@ -114,81 +276,27 @@ int main(int argc, char** argv) {
   options.max_alias_ratio = args.number("max-alias-ratio");
   options.min_lines = args.integer("min-lines");
 
-  const auto route = loadRoute(args.text("route"));
-  if (!route) {
-    std::cerr << "route_info: " << route.status().toString() << "\n";
+  const std::string directory = args.text("route");
+  const bool shift_heading = args.integer("shift-heading") != 0;
+  const bool plots = args.integer("plots") != 0;
+  if (!std::filesystem::exists(directory + "/map.yaml")) {
+    const auto route = loadRoute(directory);
+    if (!route) {
+      std::cerr << "route_info: " << route.status().toString() << "\n";
+      return 1;
+    }
+    return auditOneRoute(*route, options, shift_heading, args.text("out"), plots);
+  }
+  const auto map = loadRouteMap(directory);
+  if (!map) {
+    std::cerr << "route_info: " << map.status().toString() << "\n";
     return 1;
   }
-  const auto audit = auditRoute(*route, options);
-  if (!audit) {
-    std::cerr << "route_info: " << audit.status().toString() << "\n";
-    return 1;
+  for (const MapRoute& r : map->routes) {
+    std::printf("\n== route %s (%s)\n", r.name.c_str(), r.route.directory.c_str());
+    const int failed = auditOneRoute(r.route, options, shift_heading, args.text("out") + "/" + r.name, plots);
+    if (failed != 0) return failed;
   }
-  // The seasonal heading fix's material (keyframe_shift_heading.h): its features per keyframe and
-  // its vote's support against the next keyframe.
-  std::vector<ShiftHeadingAudit> shift;
-  if (args.integer("shift-heading") != 0) shift = auditShiftHeading(*route, PinholeCamera(route->info.camera));
-  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s %11s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
-              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "shift f/vote", "weak");
-  for (const KeyframeAudit& a : audit->keyframes) {
-    double position = NAN, heading = NAN;
-    if (a.predicted_covariance) {
-      position = std::sqrt(std::max((*a.predicted_covariance)(0, 0), (*a.predicted_covariance)(1, 1)));
-      heading = std::sqrt((*a.predicted_covariance)(2, 2)) * 180.0 / M_PI;
-    }
-    const std::string alias = a.alias_keyframe >= 0 ? std::to_string(a.alias_inliers) + "@" + std::to_string(a.alias_keyframe) : "-";
-    std::string weak;
-    for (const auto& w : a.fast_hd_weaknesses) weak += "fast_hd: " + w + "; ";
-    for (const auto& w : a.mu_weaknesses) weak += "mu: " + w + "; ";
-    std::string seasonal = "-";
-    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
-      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
-      seasonal = std::to_string(h.features) + "/" + std::to_string(h.support) + (h.ambiguous ? "?" : "");
-    }
-    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f %11s  %s\n", a.keyframe, a.pose.x, a.pose.y,
-                a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
-                a.has_plane ? a.plane_distance_m : NAN, seasonal.c_str(), weak.c_str());
-  }
-  for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
-  std::printf("%d keyframes; weak for fast_hd: %d, for mu: %d\n", static_cast<int>(audit->keyframes.size()),
-              audit->weak_for_fast_hd, audit->weak_for_mu);
-
-  nlohmann::json document;
-  document["kind"] = "route_audit";
-  document["route"] = route->directory;
-  document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
-                       {"pixel_sigma", options.repeat.pose.pixel_sigma_px},
-                       {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
-                       {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
-                       {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
-                       {"heading_sigma", options.repeat.pose.heading_sigma_rad},
-                       {"min_plane_features", options.min_plane_features},
-                       {"max_position_sigma_m", options.max_position_sigma_m},
-                       {"max_heading_sigma_rad", options.max_heading_sigma_rad},
-                       {"max_alias_ratio", options.max_alias_ratio}, {"min_lines", options.min_lines}};
-  document["summary"] = {{"keyframes", audit->keyframes.size()}, {"weak_for_fast_hd", audit->weak_for_fast_hd},
-                         {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
-  for (const KeyframeAudit& a : audit->keyframes) {
-    nlohmann::json k = toJson(a);
-    if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
-      const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
-      k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
-                            {"ambiguous", h.ambiguous}, {"problem", h.problem}};
-    }
-    document["keyframes"].push_back(k);
-  }
-  const std::string out = args.text("out");
-  std::error_code error;
-  std::filesystem::create_directories(out, error);
-  const std::string json_path = out + "/route_audit.json";
-  std::ofstream file(json_path);
-  file << std::setw(1) << document << "\n";
-  file.close();
-  if (!file) {
-    std::cerr << "route_info: cannot write " << json_path << "\n";
-    return 1;
-  }
-  std::cout << "wrote " << json_path << "\n";
-  if (args.integer("plots") != 0 && eval::drawPlots(json_path, "route_info") != 0) return 1;
+  return auditJunctions(*map, options.repeat, args.text("out"), plots);
   return 0;
 }
