@@ -77,8 +77,16 @@ Expected<MapRelocalizer> MapRelocalizer::create(const RouteMap& map, std::option
     return Status(StatusCode::kInvalidInput, e.what());
   }
   if (map.routes.empty()) return Status(StatusCode::kInvalidInput, "the map '" + map.directory + "' has no route");
-  std::size_t keyframes = 0;
-  for (const MapRoute& r : map.routes) keyframes += r.route.keyframes.size();
+  std::size_t keyframes = 0, with_plane = 0;
+  for (const MapRoute& r : map.routes) {
+    keyframes += r.route.keyframes.size();
+    for (const RouteKeyframe& k : r.route.keyframes) with_plane += k.plane ? 1 : 0;
+  }
+  if (with_plane == 0) {
+    return Status(StatusCode::kInvalidInput, "no keyframe of the map '" + map.directory +
+                                                 "' has a plane: relocalization checks places with fast_hd, which "
+                                                 "needs the teach phase's planes");
+  }
   if (index && index->size() != keyframes) {
     return Status(StatusCode::kInvalidInput, "the place index has " + std::to_string(index->size()) +
                                                  " keyframes and the map " + std::to_string(keyframes) +

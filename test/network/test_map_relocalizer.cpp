@@ -9,6 +9,7 @@
 
 #include "homography_teach_repeat/network/map_place_index.h"
 #include "homography_teach_repeat/network/map_relocalizer.h"
+#include "network/network_fixtures.h"
 #include "support/synthetic_route.h"
 
 using namespace homography_teach_repeat;
@@ -174,6 +175,28 @@ TEST_F(MapOfWalls, BadInputIsRefusedAndACorruptKeyframeIsNamed) {
   ASSERT_FALSE(result->problems.empty());
   EXPECT_NE(result->problems.front().find("features"), std::string::npos) << result->problems.front();
   std::filesystem::remove_all(copy);
+}
+
+TEST_F(MapOfWalls, RefusesAMapWithoutPlanesAndAnIndexOfAnotherMap) {
+  const std::string dir = network_test::temporaryDirectory();
+  network_test::writeTinyRoute(dir, network_test::straight(Pose2D(), 3));  // no planes
+  const auto map = loadRouteMap(dir);
+  ASSERT_TRUE(map.isOk()) << map.status().toString();
+  const auto refused = MapRelocalizer::create(*map, std::nullopt, RepeatOptions());
+  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(refused.status().message().find("plane"), std::string::npos) << refused.status().message();
+
+  const std::string taught = directory + "/routes/first";
+  RouteMap walls;
+  walls.directory = directory;
+  walls.routes.push_back(MapRoute{"first", "routes/first", *loadRoute(taught)});
+  cv::Mat descriptors(40, 32, CV_8U);
+  cv::randu(descriptors, 0, 256);
+  auto other = PlaceIndex::build({descriptors.rowRange(0, 20), descriptors.rowRange(20, 40)});
+  ASSERT_TRUE(other.isOk()) << other.status().toString();
+  const auto stale = MapRelocalizer::create(walls, std::move(*other), RepeatOptions());
+  EXPECT_EQ(stale.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(stale.status().message().find("route_map index"), std::string::npos) << stale.status().message();
 }
 
 TEST(RelocalizationOptions, RefusesNonsenseNamingTheField) {

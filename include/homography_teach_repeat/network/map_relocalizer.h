@@ -101,7 +101,8 @@ struct PlaceHint {
 class MapRelocalizer {
  public:
   // `index`: the map's place index (map_place_index.h); may be empty when every search has a hint.
-  // kInvalidInput for bad options, a map without routes, or an index of another map's size.
+  // kInvalidInput for bad options, a map without routes or without any keyframe plane, or an index
+  // of another map's size.
   static Expected<MapRelocalizer> create(const RouteMap& map, std::optional<PlaceIndex> index,
                                          const RepeatOptions& repeat, const RelocalizationOptions& options = {});
 
