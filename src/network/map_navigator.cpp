@@ -42,7 +42,7 @@ MapNavigator::MapNavigator(MapRelocalizer relocalizer, const MapNavigatorOptions
     : relocalizer_(std::move(relocalizer)), options_(options), graph_(relocalizer_.map(), options.graph) {}
 
 Status MapNavigator::addOdometry(double stamp, const Pose2D& odom) {
-  const Status added = odometry_.add(stamp, odom);
+  Status added = odometry_.add(stamp, odom);
   if (!added.isOk()) return added;
   return pipeline_ ? pipeline_->addOdometry(stamp, odom) : Status::ok();
 }
@@ -136,7 +136,7 @@ Expected<NetworkPath> MapNavigator::setDestination(const KeyframeRef& destinatio
 Status MapNavigator::relocalize(const std::optional<PlaceHint>& hint) {
   relocalizer_.reset();
   if (hint) {
-    const Status set = relocalizer_.setHint(*hint);
+    Status set = relocalizer_.setHint(*hint);
     if (!set.isOk()) return set;
   }
   pipeline_.reset();
