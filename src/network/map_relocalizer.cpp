@@ -68,6 +68,23 @@ std::string toString(RelocalizationState state) {
   return "unknown";
 }
 
+std::optional<PlaceHint> placeHintFromMapPose(const RouteMap& map, const Pose2D& pose_in_map) {
+  if (!finitePose(pose_in_map)) return std::nullopt;
+  std::optional<PlaceHint> best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (const auto& [name, frame] : routeFramesInMap(map)) {
+    const Pose2D in_route = frame.inverse().compose(pose_in_map);
+    for (const RouteKeyframe& k : map.find(name)->route.keyframes) {
+      const double distance = std::hypot(k.pose.x - in_route.x, k.pose.y - in_route.y);
+      if (distance < best_distance) {
+        best_distance = distance;
+        best = PlaceHint{name, in_route};
+      }
+    }
+  }
+  return best;
+}
+
 Expected<MapRelocalizer> MapRelocalizer::create(const RouteMap& map, std::optional<PlaceIndex> index,
                                                 const RepeatOptions& repeat, const RelocalizationOptions& options) {
   try {

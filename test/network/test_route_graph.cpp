@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "homography_teach_repeat/network/map_relocalizer.h"
 #include "homography_teach_repeat/network/path_route.h"
 #include "homography_teach_repeat/network/route_graph.h"
 #include "network/network_fixtures.h"
@@ -238,4 +239,22 @@ TEST(RouteFramesInMap, PlacesEveryJoinedRouteInTheFirstRoutesFrame) {
   EXPECT_NEAR(from_hall.at("trunk").x, world.hall_odometry.inverse().x, 1e-9);
   EXPECT_NEAR(from_hall.at("trunk").y, world.hall_odometry.inverse().y, 1e-9);
   EXPECT_TRUE(routeFramesInMap(map, "nowhere").empty());
+}
+
+TEST(PlaceHintFromMapPose, TakesTheRouteNearestToThePoseInItsOwnFrame) {
+  const TWorld world;
+  const RouteMap map = world.map();
+  // Beside room_a's third keyframe (world frame = the trunk's = the map frame).
+  const Pose2D near_room_a = world.room_a[2].compose(Pose2D(0.0, 0.1, 0.05));
+  const auto hint = placeHintFromMapPose(map, near_room_a);
+  ASSERT_TRUE(hint.has_value());
+  EXPECT_EQ(hint->route, "room_a");
+  const Pose2D expected = world.room_a_odometry.inverse().compose(near_room_a);
+  EXPECT_NEAR(hint->pose.x, expected.x, 1e-9);
+  EXPECT_NEAR(hint->pose.y, expected.y, 1e-9);
+  EXPECT_NEAR(wrapToPi(hint->pose.yaw - expected.yaw), 0.0, 1e-9);
+  const auto on_trunk = placeHintFromMapPose(map, Pose2D(2.6, 0.0, 0.0));
+  ASSERT_TRUE(on_trunk.has_value());
+  EXPECT_EQ(on_trunk->route, "trunk");
+  EXPECT_FALSE(placeHintFromMapPose(map, Pose2D(NAN, 0.0, 0.0)).has_value());
 }

@@ -98,6 +98,11 @@ struct PlaceHint {
   Pose2D pose;
 };
 
+// The hint for a pose given in the map frame (the first route's frame, routeFramesInMap; rviz's
+// "2D Pose Estimate"): the route, among those joined to that frame, with the keyframe nearest to
+// it, and the pose in that route's frame. nullopt for a non-finite pose or a map without routes.
+std::optional<PlaceHint> placeHintFromMapPose(const RouteMap& map, const Pose2D& pose_in_map);
+
 class MapRelocalizer {
  public:
   // `index`: the map's place index (map_place_index.h); may be empty when every search has a hint.
