@@ -12,6 +12,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "homography_teach_repeat/eval/measurement.h"
 #include "homography_teach_repeat/eval/pose_consistency.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
 
@@ -39,15 +40,6 @@ std::vector<StampedPose2D> synthesize(const std::vector<StampedPose2D>& truth, c
   result.reserve(truth.size());
   for (const auto& t : truth) result.push_back({t.stamp, odometry.add(t.pose)});
   return result;
-}
-
-double percentile(std::vector<double> values, double fraction) {
-  if (values.empty()) return std::nan("");
-  std::sort(values.begin(), values.end());
-  const double position = fraction * static_cast<double>(values.size() - 1);
-  const auto below = static_cast<std::size_t>(std::floor(position));
-  const auto above = std::min(below + 1, values.size() - 1);
-  return values[below] + (position - static_cast<double>(below)) * (values[above] - values[below]);
 }
 
 // "turn N" / "straight N" per frame from the ground truth's turn rate (SequenceEvaluationOptions::

@@ -2,20 +2,12 @@
 
 #include <cmath>
 #include <map>
-#include <sstream>
 
+#include "homography_teach_repeat/common/text.h"
 #include "homography_teach_repeat/network/junction_measurement.h"
 
 namespace homography_teach_repeat {
 namespace {
-
-std::string fixed(double value, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
 
 JunctionAudit auditJunction(const RouteMap& map, const Junction& junction, const RepeatOptions& repeat,
                             const MapAuditOptions& options) {
@@ -40,17 +32,17 @@ JunctionAudit auditJunction(const RouteMap& map, const Junction& junction, const
   }
   const double sigma = std::sqrt(std::max(audit.covariance(0, 0), audit.covariance(1, 1)));
   if (!(sigma <= options.max_position_sigma_m)) {
-    audit.weaknesses.push_back("position sigma " + fixed(sigma, 3) + " m (more than " +
-                               fixed(options.max_position_sigma_m, 3) + ")");
+    audit.weaknesses.push_back("position sigma " + formatFixed(sigma, 3) + " m (more than " +
+                               formatFixed(options.max_position_sigma_m, 3) + ")");
   }
   const double heading_sigma = std::sqrt(audit.covariance(2, 2));
   if (!(heading_sigma <= options.max_heading_sigma_rad)) {
-    audit.weaknesses.push_back("heading sigma " + fixed(heading_sigma * 180.0 / M_PI, 2) + " deg (more than " +
-                               fixed(options.max_heading_sigma_rad * 180.0 / M_PI, 2) + ")");
+    audit.weaknesses.push_back("heading sigma " + formatFixed(heading_sigma * 180.0 / M_PI, 2) + " deg (more than " +
+                               formatFixed(options.max_heading_sigma_rad * 180.0 / M_PI, 2) + ")");
   }
   if (audit.disagreement_m > options.max_disagreement_m || audit.disagreement_rad > options.max_disagreement_rad) {
-    audit.weaknesses.push_back("measured again " + fixed(audit.disagreement_m, 3) + " m and " +
-                               fixed(audit.disagreement_rad * 180.0 / M_PI, 2) +
+    audit.weaknesses.push_back("measured again " + formatFixed(audit.disagreement_m, 3) + " m and " +
+                               formatFixed(audit.disagreement_rad * 180.0 / M_PI, 2) +
                                " deg from the stored pose (the map's junction is off, or the place changed)");
   }
   return audit;

@@ -4,11 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <sstream>
-#include <thread>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
+#include "homography_teach_repeat/common/text.h"
 #include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/network/map_place_index.h"
 
@@ -27,14 +27,6 @@ RepeatOptions fastHdOptions(RepeatOptions repeat) {
   repeat.mode = RepeatMode::kFastHd;
   repeat.require_planes = true;
   return repeat;
-}
-
-std::string fixed(double value, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << value;
-  return out.str();
 }
 
 }  // namespace
@@ -395,13 +387,13 @@ void MapRelocalizer::judge(Relocalization* result) {
   if (best.support >= options_.confirmations && moved) {
     result->state = RelocalizationState::kConfirmed;
     result->place = best;
-    result->reason = best_text + " over " + fixed(best.driven, 2) + " m and " + fixed(best.turned, 2) + " rad";
+    result->reason = best_text + " over " + formatFixed(best.driven, 2) + " m and " + formatFixed(best.turned, 2) + " rad";
     return;
   }
   result->state = RelocalizationState::kTentative;
   result->reason = best_text + "; confirmed after " + std::to_string(options_.confirmations) + " frames and " +
-                   fixed(options_.confirmation_distance, 2) + " m or " + fixed(options_.confirmation_turn, 2) +
-                   " rad (now " + fixed(best.driven, 2) + " m, " + fixed(best.turned, 2) + " rad)";
+                   formatFixed(options_.confirmation_distance, 2) + " m or " + formatFixed(options_.confirmation_turn, 2) +
+                   " rad (now " + formatFixed(best.driven, 2) + " m, " + formatFixed(best.turned, 2) + " rad)";
 }
 
 }  // namespace homography_teach_repeat

@@ -27,22 +27,21 @@
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/common/process_memory.h"
+#include "homography_teach_repeat/eval/measurement.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/eval/synthetic_places.h"
 #include "homography_teach_repeat/network/place_index.h"
 #include "homography_teach_repeat/network/route_map.h"
 
 using namespace homography_teach_repeat;
+using eval::percentile;
+using eval::secondsSince;
 namespace fs = std::filesystem;
 
 namespace {
 
 constexpr int kKeyframesPerRoute = 500;
 constexpr double kSpacing = 0.5;
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // --measure-load DIR: load the map and its place index, print {"load_s", "peak_rss_mib"}.
 int measureLoad(const std::string& directory) {
@@ -90,12 +89,6 @@ void writeMap(const std::string& directory, int keyframes, cv::RNG& rng) {
     const Status committed = commitMapRoute(map, name, "routes/" + name);
     if (!committed.isOk()) throw std::runtime_error(committed.message());
   }
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5)];
 }
 
 }  // namespace
@@ -160,13 +153,7 @@ int main(int argc, char** argv) {
 
       // The load in a fresh process, so that its peak resident memory is the map's alone.
       const std::string command = "'" + std::string(argv[0]) + "' --measure-load '" + map_dir + "'";
-      FILE* pipe = ::popen(command.c_str(), "r");
-      if (pipe == nullptr) throw std::runtime_error("cannot run " + command);
-      std::string output;
-      char buffer[512];
-      while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-      if (::pclose(pipe) != 0) throw std::runtime_error("the load of " + map_dir + " failed");
-      const auto load = nlohmann::json::parse(output);
+      const auto load = eval::runForJson(command);
 
       std::vector<double> query_ms;
       int at_1 = 0;

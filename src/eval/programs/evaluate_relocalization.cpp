@@ -31,12 +31,15 @@
 
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/common/process_memory.h"
+#include "homography_teach_repeat/eval/measurement.h"
 #include "homography_teach_repeat/eval/plots.h"
 #include "homography_teach_repeat/network/map_place_index.h"
 #include "homography_teach_repeat/network/map_relocalizer.h"
 #include "homography_teach_repeat/network/route_map.h"
 
 using namespace homography_teach_repeat;
+using eval::percentile;
+using eval::secondsSince;
 namespace fs = std::filesystem;
 
 namespace {
@@ -47,10 +50,6 @@ constexpr double kWallDistance = 3.0;   // [m] from the taught line
 constexpr double kWallHeight = 2.5;     // [m]
 constexpr double kCameraHeight = 1.2;   // [m]
 constexpr double kPixelsPerMetre = 200.0;
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 CameraCalibration camera() {
   CameraCalibration c;
@@ -159,12 +158,6 @@ void writeMap(const std::string& directory, int keyframes, const FeatureOptions&
     const Status committed = commitMapRoute(map, name, "routes/" + name);
     if (!committed.isOk()) throw std::runtime_error(committed.message());
   }
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5)];
 }
 
 // --measure DIR QUERIES MAX_FRAMES MAX_FEATURES: in a fresh process, load the map and relocalize at QUERIES
@@ -321,13 +314,7 @@ int main(int argc, char** argv) {
       const std::string command = "'" + std::string(argv[0]) + "' --measure '" + map_dir + "' " +
                                   std::to_string(queries) + " " + std::to_string(max_frames) + " " +
                                   std::to_string(features.max_features);
-      FILE* pipe = ::popen(command.c_str(), "r");
-      if (pipe == nullptr) throw std::runtime_error("cannot run " + command);
-      std::string output;
-      char buffer[4096];
-      while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-      if (::pclose(pipe) != 0) throw std::runtime_error("the relocalization on " + map_dir + " failed");
-      nlohmann::json row = nlohmann::json::parse(output);
+      nlohmann::json row = eval::runForJson(command);
       row["keyframes"] = size;
       row["length_m"] = kSpacing * size;
       row["teach_s"] = teach_s;
@@ -337,7 +324,8 @@ int main(int argc, char** argv) {
                   size, row["load_s"].get<double>(), row["peak_rss_mib"].get<double>(),
                   row["frame_ms_median"].get<double>(), row["frame_ms_p95"].get<double>(),
                   row["frame_ms_max"].get<double>(), row["right"].get<int>(), row["wrong"].get<int>(),
-                  row["unconfirmed"].get<int>(), queries, row["frames_to_confirm_median"].get<double>());
+                  row["unconfirmed"].get<int>(), queries,
+                  row["frames_to_confirm_median"].is_number() ? row["frames_to_confirm_median"].get<double>() : NAN);
       std::fflush(stdout);
       doc["sizes"].push_back(row);
     }

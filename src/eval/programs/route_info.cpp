@@ -67,6 +67,23 @@ nlohmann::json toJson(const KeyframeAudit& a) {
   return k;
 }
 
+// Writes `document` to `json_path` (its folder created) and, with `plots`, draws it; 0 or 1.
+int writeDocument(const nlohmann::json& document, const std::string& json_path, bool plots) {
+  std::error_code error;
+  std::filesystem::create_directories(std::filesystem::path(json_path).parent_path(), error);
+  std::ofstream file(json_path);
+  file << std::setw(1) << document << "\n";
+  file.close();
+  if (!file) {
+    std::cerr << "route_info: cannot write " << json_path << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << json_path << "\n";
+  std::fflush(stdout);
+  if (plots && eval::drawPlots(json_path, "route_info") != 0) return 1;
+  return 0;
+}
+
 // The audit of one route: its table on stdout, OUT/route_audit.json (and .png with `plots`).
 int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shift_heading, const std::string& out,
                   bool plots) {
@@ -128,20 +145,7 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
     }
     document["keyframes"].push_back(k);
   }
-  std::error_code error;
-  std::filesystem::create_directories(out, error);
-  const std::string json_path = out + "/route_audit.json";
-  std::ofstream file(json_path);
-  file << std::setw(1) << document << "\n";
-  file.close();
-  if (!file) {
-    std::cerr << "route_info: cannot write " << json_path << "\n";
-    return 1;
-  }
-  std::cout << "wrote " << json_path << "\n";
-  std::fflush(stdout);
-  if (plots && eval::drawPlots(json_path, "route_info") != 0) return 1;
-  return 0;
+  return writeDocument(document, out + "/route_audit.json", plots);
 }
 
 // The map's junctions and groups: a table on stdout, OUT/map_audit.json (and .png with `plots`).
@@ -206,20 +210,7 @@ int auditJunctions(const RouteMap& map, const RepeatOptions& repeat, const std::
   document["summary"] = {{"routes", map.routes.size()}, {"junctions", audit->junctions.size()},
                          {"weak_junctions", audit->weak_junctions}, {"groups", audit->groups.size()},
                          {"notes", audit->notes}};
-  std::error_code error;
-  std::filesystem::create_directories(out, error);
-  const std::string json_path = out + "/map_audit.json";
-  std::ofstream file(json_path);
-  file << std::setw(1) << document << "\n";
-  file.close();
-  if (!file) {
-    std::cerr << "route_info: cannot write " << json_path << "\n";
-    return 1;
-  }
-  std::cout << "wrote " << json_path << "\n";
-  std::fflush(stdout);
-  if (plots && eval::drawPlots(json_path, "route_info") != 0) return 1;
-  return 0;
+  return writeDocument(document, out + "/map_audit.json", plots);
 }
 
 }  // namespace
