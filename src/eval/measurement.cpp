@@ -35,5 +35,15 @@ nlohmann::json runForJson(const std::string& command) {
   }
 }
 
+std::vector<int> scaleSizes(const cli::Arguments& args, int minimum) {
+  std::vector<int> sizes;
+  for (const int s : args.indices("sizes", 1000001, {})) {
+    if (s < minimum) args.fail("--sizes: each size must be >= " + std::to_string(minimum));
+    sizes.push_back(s);
+  }
+  if (sizes.empty()) args.fail("--sizes: at least one size");
+  return sizes;
+}
+
 }  // namespace eval
 }  // namespace homography_teach_repeat

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/common/command_line.h"
+
 namespace homography_teach_repeat {
 namespace eval {
 
@@ -21,6 +23,10 @@ double secondsSince(std::chrono::steady_clock::time_point start);
 // Runs `command` through the shell and parses what it prints as one JSON document. Throws
 // std::runtime_error naming the command when it cannot run, exits non-zero or prints no JSON.
 nlohmann::json runForJson(const std::string& command);
+
+// The map sizes of a scale evaluation: the comma-separated `--sizes`, each at least `minimum` (the
+// program fails with a message otherwise, or when there is none).
+std::vector<int> scaleSizes(const cli::Arguments& args, int minimum);
 
 }  // namespace eval
 }  // namespace homography_teach_repeat

@@ -105,12 +105,7 @@ int main(int argc, char** argv) {
                       "  [--seen FRACTION] [--candidates K] [--plots 0|1] [--words W] [--dimensions D] [--checks C]");
   args.parse(argc, argv);
   if (args.text("out").empty()) args.fail("--out is required");
-  std::vector<int> sizes;
-  for (const int s : args.indices("sizes", 1000001, {})) {
-    if (s < 2) args.fail("--sizes: each size must be >= 2");
-    sizes.push_back(s);
-  }
-  if (sizes.empty()) args.fail("--sizes: at least one size");
+  const std::vector<int> sizes = eval::scaleSizes(args, 2);
   const int descriptors = args.integer("descriptors");
   const int queries = args.integer("queries");
   const int candidates = args.integer("candidates");

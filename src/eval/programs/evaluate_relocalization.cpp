@@ -269,12 +269,7 @@ int main(int argc, char** argv) {
                       "  [--max-frames N] [--plots 0|1]");
   args.parse(argc, argv);
   if (args.text("out").empty()) args.fail("--out is required");
-  std::vector<int> sizes;
-  for (const int s : args.indices("sizes", 1000001, {})) {
-    if (s < 10) args.fail("--sizes: each size must be >= 10");
-    sizes.push_back(s);
-  }
-  if (sizes.empty()) args.fail("--sizes: at least one size");
+  const std::vector<int> sizes = eval::scaleSizes(args, 10);
   const int queries = args.integer("queries");
   const int max_frames = args.integer("max-frames");
   if (queries < 1 || max_frames < 1) args.fail("--queries >= 1, --max-frames >= 1");
