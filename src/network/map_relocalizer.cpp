@@ -21,8 +21,6 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-bool finitePose(const Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.yaw); }
-
 RepeatOptions fastHdOptions(RepeatOptions repeat) {
   repeat.mode = RepeatMode::kFastHd;
   repeat.require_planes = true;
@@ -61,7 +59,7 @@ std::string toString(RelocalizationState state) {
 }
 
 std::optional<PlaceHint> placeHintFromMapPose(const RouteMap& map, const Pose2D& pose_in_map) {
-  if (!finitePose(pose_in_map)) return std::nullopt;
+  if (!pose_in_map.isFinite()) return std::nullopt;
   std::optional<PlaceHint> best;
   double best_distance = std::numeric_limits<double>::infinity();
   for (const auto& [name, frame] : routeFramesInMap(map)) {
@@ -121,7 +119,7 @@ Status MapRelocalizer::setHint(const PlaceHint& hint) {
   if (map_->find(hint.route) == nullptr) {
     return Status(StatusCode::kInvalidInput, "the hint's route '" + hint.route + "' is not in the map");
   }
-  if (!finitePose(hint.pose)) return Status(StatusCode::kInvalidInput, "the hint's pose is not finite");
+  if (!hint.pose.isFinite()) return Status(StatusCode::kInvalidInput, "the hint's pose is not finite");
   hint_ = hint;
   failed_at_frame_.clear();  // the keyframes around the hint are checked afresh
   return Status::ok();
@@ -143,7 +141,7 @@ void MapRelocalizer::warmUp() {
 
 Expected<Relocalization> MapRelocalizer::update(const cv::Mat& image, const Pose2D& odometry) {
   if (image.empty()) return Status(StatusCode::kInvalidInput, "relocalization: the image is empty");
-  if (!finitePose(odometry)) return Status(StatusCode::kInvalidInput, "relocalization: the odometry pose is not finite");
+  if (!odometry.isFinite()) return Status(StatusCode::kInvalidInput, "relocalization: the odometry pose is not finite");
   if (!hint_ && !index_) {
     return Status(StatusCode::kInvalidInput, "relocalization without a hint needs the map's place index: build it with "
                                              "'route_map index " + map_->directory + "'");
