@@ -66,9 +66,15 @@ class Arguments {
       } catch (const std::exception&) {
         used = 0;
       }
-      if (used == 0 || used != item.size()) fail("--" + key + ": '" + item + "' is not an integer");
+      std::string problem = "--" + key;
+      if (used == 0 || used != item.size()) {
+        problem.append(": '").append(item).append("' is not an integer");
+        fail(problem);
+      }
       if (value < 0 || value >= limit) {
-        fail("--" + key + ": index " + item + " is outside 0.." + std::to_string(limit - 1));
+        problem.append(": index ").append(item).append(" is outside 0..");
+        problem.append(std::to_string(limit - 1));
+        fail(problem);
       }
       result.push_back(value);
       start = end + 1;
