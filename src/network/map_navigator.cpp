@@ -1,5 +1,7 @@
 #include "homography_teach_repeat/network/map_navigator.h"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -38,8 +40,37 @@ Expected<MapNavigator> MapNavigator::create(const RouteMap& map, std::optional<P
   return MapNavigator(std::move(*relocalizer), options);
 }
 
+void expressRepeatResultIn(const Pose2D& frame, RepeatFrameResult* result) {
+  if (result->pose) result->pose = frame.compose(*result->pose);
+  if (result->map_to_odom) result->map_to_odom = frame.compose(*result->map_to_odom);
+  if (result->covariance) {
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    rotation.topLeftCorner<2, 2>() = Eigen::Rotation2Dd(frame.yaw).toRotationMatrix();
+    result->covariance = rotation * *result->covariance * rotation.transpose();
+  }
+}
+
 MapNavigator::MapNavigator(MapRelocalizer relocalizer, const MapNavigatorOptions& options)
-    : relocalizer_(std::move(relocalizer)), options_(options), graph_(relocalizer_.map(), options.graph) {}
+    : relocalizer_(std::move(relocalizer)),
+      options_(options),
+      graph_(relocalizer_.map(), options.graph),
+      route_frames_(routeFramesInMap(relocalizer_.map())) {}
+
+std::vector<Pose2D> MapNavigator::wayInMap() const {
+  std::vector<Pose2D> poses;
+  if (!way_) return poses;
+  for (const auto& keyframe : way_->route.keyframes) poses.push_back(way_in_map_.compose(keyframe.pose));
+  return poses;
+}
+
+Status MapNavigator::reconfigure(const RepeatOptions& options) {
+  if (pipeline_) {
+    Status changed = pipeline_->reconfigure(options);
+    if (!changed.isOk()) return changed;
+  }
+  options_.repeat.localization = options;
+  return Status::ok();
+}
 
 Status MapNavigator::addOdometry(double stamp, const Pose2D& odom) {
   Status added = odometry_.add(stamp, odom);
@@ -52,6 +83,7 @@ NavigatorFrame MapNavigator::processFrame(double stamp, const Expected<cv::Mat>&
   NavigatorFrame frame;
   if (mode_ == NavigatorMode::kFollowing) {
     frame.repeat = pipeline_->processFrame(stamp, image, camera);
+    expressRepeatResultIn(way_in_map_, &*frame.repeat);
     frame.mode = mode_;
     return frame;
   }
@@ -113,6 +145,12 @@ Expected<NetworkPath> MapNavigator::setDestination(const KeyframeRef& destinatio
   if (!from) {
     return Status(StatusCode::kInvalidInput, "the robot's place is not known yet (relocalizing): no way can be planned");
   }
+  const auto frame = route_frames_.find(from->route);
+  if (frame == route_frames_.end()) {
+    return Status(StatusCode::kInvalidInput, "the robot is on route '" + from->route + "', which no junction joins to '" +
+                                                 map().routes.front().name +
+                                                 "' (the map frame): its poses have no map frame; teach a junction");
+  }
   auto path = graph_.shortestPath(*from, destination);
   if (!path) return path.status();
   auto way = composePathRoute(map(), *path, options_.graph);
@@ -128,6 +166,7 @@ Expected<NetworkPath> MapNavigator::setDestination(const KeyframeRef& destinatio
   }
   pipeline->warmUp();
   way_ = std::move(*way);
+  way_in_map_ = frame->second;
   pipeline_.emplace(std::move(*pipeline));
   mode_ = NavigatorMode::kFollowing;
   return path;

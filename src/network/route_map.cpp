@@ -146,6 +146,25 @@ Expected<RouteMap> loadSingleRouteFolder(const std::string& directory) {
 
 std::string toString(const KeyframeRef& ref) { return ref.route + ":" + std::to_string(ref.keyframe); }
 
+Expected<KeyframeRef> parseKeyframeRef(const std::string& text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) {
+    return Status(StatusCode::kInvalidInput, "'" + text + "' is not ROUTE:KEYFRAME");
+  }
+  KeyframeRef ref{text.substr(0, colon), -1};
+  const std::string number = text.substr(colon + 1);
+  std::size_t used = 0;
+  try {
+    ref.keyframe = std::stoi(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != number.size() || ref.keyframe < 0) {
+    return Status(StatusCode::kInvalidInput, "'" + text + "': keyframe '" + number + "' is not a number >= 0");
+  }
+  return ref;
+}
+
 const MapRoute* RouteMap::find(const std::string& name) const {
   for (const MapRoute& r : routes) {
     if (r.name == name) return &r;

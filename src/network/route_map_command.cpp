@@ -37,23 +37,10 @@ struct UsageError {
 
 // "route:12" (or "route" alone when `keyframe_optional`, keyframe -1).
 KeyframeRef parseRef(const std::string& text, bool keyframe_optional) {
-  const auto colon = text.rfind(':');
-  if (colon == std::string::npos) {
-    if (keyframe_optional) return KeyframeRef{text, -1};
-    throw UsageError{"'" + text + "' is not ROUTE:KEYFRAME"};
-  }
-  KeyframeRef ref{text.substr(0, colon), -1};
-  const std::string number = text.substr(colon + 1);
-  std::size_t used = 0;
-  try {
-    ref.keyframe = std::stoi(number, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != number.size() || ref.keyframe < 0) {
-    throw UsageError{"'" + text + "': keyframe '" + number + "' is not a number >= 0"};
-  }
-  return ref;
+  if (keyframe_optional && text.find(':') == std::string::npos) return KeyframeRef{text, -1};
+  auto ref = parseKeyframeRef(text);
+  if (!ref) throw UsageError{ref.status().message()};
+  return *ref;
 }
 
 double routeLength(const Route& route) {

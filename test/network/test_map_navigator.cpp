@@ -92,7 +92,13 @@ TEST_F(NavigatorMap, RelocalizesThenFollowsTheWayToTheDestination) {
   ASSERT_EQ(nav.mode(), NavigatorMode::kFollowing);
   ASSERT_TRUE(nav.way().has_value());
 
-  // Along the way: the repeat's poses, in the frame of the way's first route ("first": the truth's).
+  // The way in the map frame ("first" is the map's first route: its frame is the map frame).
+  const std::vector<Pose2D> way_poses = nav.wayInMap();
+  ASSERT_EQ(way_poses.size(), nav.way()->route.keyframes.size());
+  EXPECT_NEAR(way_poses.back().x, nav.map().find("first")->route.keyframes.back().pose.x, 1e-12);
+  EXPECT_EQ(nav.routeFrames().count("other"), 0U);  // no junction joins it
+
+  // Along the way: the repeat's poses, in the map frame ("first"'s, the truth's).
   int poses = 0;
   for (; s < 1.1; s += 0.1, stamp += 0.1) {
     const NavigatorFrame frame = frameAt(nav, s, stamp);
@@ -129,4 +135,30 @@ TEST_F(NavigatorMap, BadFramesAreRefusedWithTheReason) {
   EXPECT_NE(frame.status.message().find("corrupt JPEG"), std::string::npos);
   EXPECT_EQ(nav.mode(), NavigatorMode::kRelocalizing);
   EXPECT_EQ(nav.addOdometry(6.0, Pose2D(NAN, 0.0, 0.0)).code(), StatusCode::kInvalidInput);
+}
+
+TEST(ExpressRepeatResultIn, MovesPoseAndAlignmentAndRotatesTheCovariance) {
+  RepeatFrameResult result;
+  result.pose = Pose2D(1.0, 0.0, 0.1);
+  result.map_to_odom = Pose2D(0.5, 0.5, -0.2);
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  covariance(0, 0) = 0.04;  // 0.2 m along the route frame's x
+  covariance(1, 1) = 0.0001;
+  covariance(2, 2) = 0.001;
+  result.covariance = covariance;
+  const Pose2D frame(2.0, 3.0, M_PI / 2.0);
+  expressRepeatResultIn(frame, &result);
+  EXPECT_NEAR(result.pose->x, 2.0, 1e-12);
+  EXPECT_NEAR(result.pose->y, 4.0, 1e-12);
+  EXPECT_NEAR(result.pose->yaw, M_PI / 2.0 + 0.1, 1e-12);
+  EXPECT_NEAR(result.map_to_odom->x, 1.5, 1e-12);
+  EXPECT_NEAR(result.map_to_odom->y, 3.5, 1e-12);
+  // The route frame's x is the map frame's y.
+  EXPECT_NEAR((*result.covariance)(1, 1), 0.04, 1e-12);
+  EXPECT_NEAR((*result.covariance)(0, 0), 0.0001, 1e-12);
+  EXPECT_NEAR((*result.covariance)(2, 2), 0.001, 1e-12);
+  RepeatFrameResult empty;
+  expressRepeatResultIn(frame, &empty);
+  EXPECT_FALSE(empty.pose.has_value());
+  EXPECT_FALSE(empty.covariance.has_value());
 }

@@ -270,3 +270,16 @@ TEST(RouteMap, RouteNames) {
   EXPECT_FALSE(isValidRouteName(std::string(65, 'a')));
   EXPECT_EQ(toString(KeyframeRef{"trunk", 12}), "trunk:12");
 }
+
+TEST(RouteMap, KeyframeReferencesParseOrSayWhy) {
+  const auto ref = parseKeyframeRef("room-a:12");
+  ASSERT_TRUE(ref.isOk()) << ref.status().toString();
+  EXPECT_EQ(ref->route, "room-a");
+  EXPECT_EQ(ref->keyframe, 12);
+  EXPECT_EQ(toString(*ref), "room-a:12");
+  for (const std::string bad : {"room", ":3", "room:", "room:x", "room:-1", "room:3.5", ""}) {
+    const auto refused = parseKeyframeRef(bad);
+    EXPECT_EQ(refused.status().code(), StatusCode::kInvalidInput) << bad;
+    EXPECT_NE(refused.status().message().find("'" + bad), std::string::npos) << refused.status().message();
+  }
+}

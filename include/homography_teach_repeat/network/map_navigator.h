@@ -8,16 +8,19 @@
 //  - setDestination(): from the confirmed place (or, while following, from the keyframe the repeat
 //    tracks) the shortest way to the destination is planned and composed into one route, whose
 //    first keyframe is where the robot is; a RepeatPipeline starts on it (kFollowing) and every
-//    frame goes to it: its pose, covariance and integrity are in the frame of the way's first route.
+//    frame goes to it: its pose, covariance and map_to_odom are given in the map frame (the frame
+//    of the map's first route, routeFramesInMap), like the way's poses (wayInMap).
 //  - relocalize(): back to kRelocalizing (the robot was carried elsewhere; a new hint).
 // The pipeline's odometry gate, integrity monitor and search behave as on a single route.
 #pragma once
 
 #include <opencv2/core.hpp>
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
@@ -47,6 +50,10 @@ struct NavigatorFrame {
   std::optional<RepeatFrameResult> repeat;        // the frame went to the repeat along the way
 };
 
+// Re-expresses a frame's pose, covariance (x, y, yaw) and map_to_odom, given in a frame F, in the
+// frame in which F is at `frame` (a rotation of the covariance's x, y block by frame.yaw).
+void expressRepeatResultIn(const Pose2D& frame, RepeatFrameResult* result);
+
 class MapNavigator {
  public:
   // kInvalidInput for bad options or what MapRelocalizer::create refuses.
@@ -59,8 +66,9 @@ class MapNavigator {
 
   // Plans the way from where the robot is to `destination` and follows it from the next frame.
   // kInvalidInput when the destination is not in the map, or the robot's place is not known yet
-  // (still relocalizing); kNoConsensus ("not reachable") when no way leads there; the composed
-  // route's or the pipeline's errors.
+  // (still relocalizing), or the way starts on a route no junction joins to the map frame's route
+  // (its poses have no map frame); kNoConsensus ("not reachable") when no way leads there; the
+  // composed route's or the pipeline's errors.
   Expected<NetworkPath> setDestination(const KeyframeRef& destination);
   // Forgets the place and relocalizes, around `hint` when given (kInvalidInput for a bad hint).
   Status relocalize(const std::optional<PlaceHint>& hint = std::nullopt);
@@ -70,6 +78,13 @@ class MapNavigator {
   // way the repeat tracks. Empty while relocalizing.
   std::optional<KeyframeRef> place() const;
   const std::optional<PathRoute>& way() const { return way_; }
+  // The way's keyframe poses (base_link) in the map frame; empty when not following.
+  std::vector<Pose2D> wayInMap() const;
+  // Where each route's odometry frame is in the map frame (routeFramesInMap of the map's first route).
+  const std::map<std::string, Pose2D>& routeFrames() const { return route_frames_; }
+  // New localization options (dynamic_reconfigure) for the way followed now and the next ones;
+  // the pipeline's refusal leaves both as they were.
+  Status reconfigure(const RepeatOptions& options);
   const RepeatPipeline* pipeline() const { return pipeline_ ? &*pipeline_ : nullptr; }
   const MapRelocalizer& relocalizer() const { return relocalizer_; }
   const RouteMap& map() const { return relocalizer_.map(); }
@@ -80,6 +95,8 @@ class MapNavigator {
   MapRelocalizer relocalizer_;
   MapNavigatorOptions options_;
   RouteGraph graph_;
+  std::map<std::string, Pose2D> route_frames_;
+  Pose2D way_in_map_;  // the way's frame (its first route's) in the map frame
   OdometryBuffer odometry_;
   NavigatorMode mode_ = NavigatorMode::kRelocalizing;
   std::optional<PlaceHypothesis> placed_;

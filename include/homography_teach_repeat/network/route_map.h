@@ -49,6 +49,9 @@ struct KeyframeRef {
   bool operator!=(const KeyframeRef& other) const { return !(*this == other); }
 };
 std::string toString(const KeyframeRef& ref);  // "corridor:12"
+// "corridor:12" back into a reference; kInvalidInput naming the text when it is not ROUTE:KEYFRAME
+// with a keyframe number >= 0 (whether the map has it is keyframePosition's question).
+Expected<KeyframeRef> parseKeyframeRef(const std::string& text);
 
 // Where two routes' keyframes see the same place: the relative pose of their base_link frames as
 // measured from the images (or from odometry while teaching, with `inliers` 0), both ways usable.
