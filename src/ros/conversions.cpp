@@ -6,6 +6,7 @@
 #include <sensor_msgs/image_encodings.h>
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace homography_teach_repeat {
@@ -209,6 +210,71 @@ visualization_msgs::MarkerArray routeMarkers(const Route& route, int current_key
     }
     markers.markers.push_back(wall);
   }
+  return markers;
+}
+
+visualization_msgs::MarkerArray networkMarkers(const RouteMap& map, const std::map<std::string, Pose2D>& route_frames,
+                                               const std::string& frame_id, const ros::Time& stamp) {
+  visualization_msgs::MarkerArray markers;
+  visualization_msgs::Marker clear;  // routes removed since the last message
+  clear.header.frame_id = frame_id;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  markers.markers.push_back(clear);
+  const auto inMap = [&](const KeyframeRef& ref) -> std::optional<geometry_msgs::Point> {
+    const auto frame = route_frames.find(ref.route);
+    const int position = map.keyframePosition(ref);
+    if (frame == route_frames.end() || position < 0) return std::nullopt;
+    const Pose2D pose = frame->second.compose(map.find(ref.route)->route.keyframes[static_cast<std::size_t>(position)].pose);
+    geometry_msgs::Point point;
+    point.x = pose.x;
+    point.y = pose.y;
+    return point;
+  };
+  int id = 0;
+  for (const MapRoute& r : map.routes) {
+    visualization_msgs::Marker line;
+    line.header.frame_id = frame_id;
+    line.header.stamp = stamp;
+    line.ns = "routes";
+    line.id = id++;
+    line.type = visualization_msgs::Marker::LINE_STRIP;
+    line.pose.orientation.w = 1.0;
+    line.scale.x = 0.04;
+    line.color.r = 0.3f;
+    line.color.g = 0.8f;
+    line.color.b = 0.3f;
+    line.color.a = 0.8f;
+    for (const RouteKeyframe& k : r.route.keyframes) {
+      if (const auto point = inMap(KeyframeRef{r.name, k.index})) line.points.push_back(*point);
+    }
+    if (line.points.empty()) continue;
+    visualization_msgs::Marker name = line;
+    name.ns = "route_names";
+    name.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    name.points.clear();
+    name.pose.position = line.points.front();
+    name.pose.position.z = 0.3;
+    name.scale.x = name.scale.y = 0.0;
+    name.scale.z = 0.2;
+    name.color.r = name.color.g = name.color.b = 1.0f;
+    name.text = r.name;
+    markers.markers.push_back(line);
+    markers.markers.push_back(name);
+  }
+  visualization_msgs::Marker junctions;
+  junctions.header.frame_id = frame_id;
+  junctions.header.stamp = stamp;
+  junctions.ns = "junctions";
+  junctions.type = visualization_msgs::Marker::SPHERE_LIST;
+  junctions.pose.orientation.w = 1.0;
+  junctions.scale.x = junctions.scale.y = junctions.scale.z = 0.2;
+  junctions.color.r = 1.0f;
+  junctions.color.g = 0.5f;
+  junctions.color.a = 0.9f;
+  for (const Junction& j : map.junctions) {
+    if (const auto point = inMap(j.from)) junctions.points.push_back(*point);
+  }
+  if (!junctions.points.empty()) markers.markers.push_back(junctions);
   return markers;
 }
 

@@ -73,6 +73,9 @@ class MapNavigator {
   // Forgets the place and relocalizes, around `hint` when given (kInvalidInput for a bad hint).
   Status relocalize(const std::optional<PlaceHint>& hint = std::nullopt);
 
+  // Before the first frame: the relocalizer's first feature detection (MapRelocalizer::warmUp).
+  void warmUp() { relocalizer_.warmUp(); }
+
   NavigatorMode mode() const { return mode_; }
   // The map keyframe the robot is at: the confirmed place, or while following the keyframe of the
   // way the repeat tracks. Empty while relocalizing.
@@ -86,6 +89,8 @@ class MapNavigator {
   // the pipeline's refusal leaves both as they were.
   Status reconfigure(const RepeatOptions& options);
   const RepeatPipeline* pipeline() const { return pipeline_ ? &*pipeline_ : nullptr; }
+  RepeatPipeline* pipeline() { return pipeline_ ? &*pipeline_ : nullptr; }
+  const MapNavigatorOptions& options() const { return options_; }
   const MapRelocalizer& relocalizer() const { return relocalizer_; }
   const RouteMap& map() const { return relocalizer_.map(); }
 

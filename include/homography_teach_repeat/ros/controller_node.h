@@ -17,7 +17,12 @@
 //             aborted (bad goal, or stopped longer than stop_abort_timeout) / preempted with the
 //             reason. A new goal replaces the running route; without a goal the node follows
 //             ~route_directory from start-up when `autostart` is true, and is idle (publishes
-//             nothing, so a joystick can drive) otherwise.
+//             nothing, so a joystick can drive) otherwise. A goal with a `destination` (a map of
+//             routes) asks repeat_node's plan_way (service `plan_way`, homography_teach_repeat/
+//             PlanWay) for the way from where the robot is, every plan_retry_period while repeat_node
+//             still relocalizes (turning in place at relocalization_turn_speed, 0: standing), and
+//             follows it once; a destination not in the map or not reachable aborts the goal with
+//             the reason, and so does no place within relocalization_timeout.
 // Parameters: see config/controller_node.yaml; gains, limits and thresholds also through
 //             dynamic_reconfigure (cfg/Controller.cfg).
 // Callbacks run one at a time (ros::spin, or the nodelet's single-threaded queue).
@@ -63,6 +68,11 @@ class ControllerNode {
   void onReconfigure(ControllerConfig& config, uint32_t level);
   // Loads the route and starts following it; throws std::runtime_error naming the problem.
   void startRoute(const std::string& directory, const RouteFollowerOptions& options);
+  // Follows `goals` (base_link poses in the pose's frame); throws std::runtime_error naming `what`.
+  void startFollowing(const std::vector<Pose2D>& goals, const RouteFollowerOptions& options, const std::string& what);
+  // A goal with a destination, while no way is planned yet (controller_node_goals.cpp).
+  void planWay(const ros::Time& now);
+  void abortGoal(const std::string& reason);
   void publishState(const std::string& state);
 
   ros::NodeHandle nh_;
@@ -83,6 +93,15 @@ class ControllerNode {
   int reference_index_ = -1;     // from repeat_node's heading correction
   unsigned inliers_ = 0;
   std::string integrity_, integrity_reason_;  // the last ~integrity of repeat_node
+  // A goal with a destination whose way is not planned yet (empty: none).
+  std::string pending_destination_;
+  ros::Time destination_since_, next_plan_;
+  std::string plan_reason_;  // why the way is not planned yet
+  bool relocalizing_ = false;
+  double plan_retry_period_ = 1.0;         // [s]
+  double relocalization_timeout_ = 60.0;   // [s]
+  double relocalization_turn_speed_ = 0.0; // [rad/s] turning in place while relocalizing (0: standing)
+  ros::ServiceClient plan_way_client_;
   std::vector<Eigen::Vector2d> obstacles_;
   ros::Time obstacles_stamp_;
 

@@ -13,12 +13,14 @@
 
 #include <opencv2/core.hpp>
 
+#include <map>
 #include <string>
 
 #include "homography_teach_repeat/HomographyStamped.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/network/route_map.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
@@ -71,6 +73,12 @@ geometry_msgs::PoseWithCovariance toPoseWithCovariance(const Pose2D& pose, const
 // in orange) and its scene plane as a 2 m wall segment ("planes"; ros/repeat_visualization.h).
 visualization_msgs::MarkerArray routeMarkers(const Route& route, int current_keyframe, const std::string& frame_id,
                                              const ros::Time& stamp);
+// A map of routes for rviz in `frame_id` (the map frame): each route a line through its keyframes
+// ("routes") and its name at its first keyframe ("route_names"), each junction a sphere at its
+// `from` keyframe ("junctions"); `route_frames` places each route (routeFramesInMap), routes it
+// lacks are left out.
+visualization_msgs::MarkerArray networkMarkers(const RouteMap& map, const std::map<std::string, Pose2D>& route_frames,
+                                               const std::string& frame_id, const ros::Time& stamp);
 
 // The (x, y, yaw) block of a PoseWithCovariance's covariance (the inverse of the above).
 Eigen::Matrix3d planarCovariance(const geometry_msgs::PoseWithCovariance& pose);

@@ -8,6 +8,11 @@
 //             tf map_frame -> odom_frame (publish_tf).
 // Services:   ~save_experiences (std_srvs/Trigger; with learn_experiences): adds the views learned
 //             so far to the route (also done when the node shuts down).
+// A map of routes (~map_directory instead of ~route_directory; network/map_navigator.h): the node
+// relocalizes (integrity LOST "relocalizing: ..." until a place is confirmed, then the place's
+// pose), takes /initialpose (rviz's 2D Pose Estimate, map_frame) as a hint, and follows the way
+// ~plan_way (homography_teach_repeat/PlanWay) plans; ~relocalize (std_srvs/Trigger) starts over.
+// Also publishes ~way (nav_msgs/Path, latched) and ~map_markers (the routes and junctions, latched).
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -29,8 +34,12 @@
 #include <optional>
 #include <string>
 
-#include "homography_teach_repeat/ros/camera_subscription.h"
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+
+#include "homography_teach_repeat/PlanWay.h"
 #include "homography_teach_repeat/RepeatConfig.h"
+#include "homography_teach_repeat/network/map_navigator.h"
+#include "homography_teach_repeat/ros/camera_subscription.h"
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/teach_repeat/experience_learning.h"
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
@@ -46,6 +55,20 @@ class RepeatNode {
   ~RepeatNode();
 
  private:
+  // The single route of route_directory, or the way followed in a map (nullptr while relocalizing).
+  RepeatPipeline* pipeline();
+  void startRoute(const std::string& directory, const RepeatPipelineOptions& options);
+  // Map mode (repeat_node_map.cpp).
+  void startMap(const std::string& directory, const RepeatPipelineOptions& options);
+  // The frame's localization timing when it went to the way's repeat.
+  std::optional<LocalizeTiming> processMapFrame(const sensor_msgs::ImageConstPtr& image,
+                                                const Expected<cv::Mat>& cv_image,
+                                                const Expected<PinholeCamera>& camera);
+  void publishRelocalization(const std_msgs::Header& header, const NavigatorFrame& frame);
+  bool onPlanWay(PlanWay::Request& request, PlanWay::Response& response);
+  void onInitialPose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& pose);
+  void publishMapMarkers();
+  void addMapDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void onImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& camera_info);
   void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
   void onReconfigure(RepeatConfig& config, uint32_t level);
@@ -72,7 +95,12 @@ class RepeatNode {
   double image_timeout_ = 1.0;
 
   std::mutex mutex_;
-  std::optional<RepeatPipeline> pipeline_;
+  std::optional<RepeatPipeline> route_pipeline_;  // route_directory
+  std::optional<MapNavigator> navigator_;         // map_directory
+  std::string last_relocalization_;               // map mode: the last verdict, for the log
+  ros::ServiceServer plan_way_service_, relocalize_service_;
+  ros::Subscriber initial_pose_subscriber_;
+  ros::Publisher way_publisher_, map_marker_publisher_;
   std::optional<Route> route_;                    // learning: the route as loaded, written into
   std::optional<ExperienceRecorder> recorder_;    // learn_experiences
   std::optional<FeatureExtractor> experience_extractor_;

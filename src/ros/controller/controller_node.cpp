@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "homography_teach_repeat/teach_repeat/route.h"
+#include "homography_teach_repeat/PlanWay.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/controller_parameters.h"
 #include "homography_teach_repeat/ros/parameters.h"
@@ -33,6 +33,14 @@ ControllerNode::ControllerNode(const ros::NodeHandle& nh, const ros::NodeHandle&
     throw std::runtime_error("parameter '" + private_nh.resolveName("stop_abort_timeout") + "' must be > 0 s");
   }
   control_period_ = 1.0 / rate;
+  const auto non_negative = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  plan_retry_period_ = readCheckedParameter(private_nh, "plan_retry_period", plan_retry_period_, positive, "must be > 0 s");
+  relocalization_timeout_ = readCheckedParameter(private_nh, "relocalization_timeout", relocalization_timeout_, positive,
+                                                 "must be > 0 s");
+  relocalization_turn_speed_ = readCheckedParameter(private_nh, "relocalization_turn_speed", relocalization_turn_speed_,
+                                                    non_negative, "must be finite and >= 0 rad/s");
+  plan_way_client_ = nh_.serviceClient<PlanWay>("plan_way");
   options_ = readRouteFollowerOptions(private_nh);
   if (autostart) startRoute(default_directory_, options_);
   command_publisher_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 1);
@@ -187,6 +195,11 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
   const ros::Time now = ros::Time::now();
   FollowOutput out;
   RepeatRouteFeedback feedback;
+  if (!pending_destination_.empty()) {
+    planWay(now);
+    diagnostics_.update();
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!follower_) {
@@ -252,21 +265,15 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
   } else if (stopped_since_ < 0.0) {
     stopped_since_ = now.toSec();
   } else if (now.toSec() - stopped_since_ > stop_abort_timeout_) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      follower_.reset();
-    }
-    command_publisher_.publish(geometry_msgs::Twist());
-    result.reached = false;
-    result.reason = "stopped for more than stop_abort_timeout (" + std::to_string(stop_abort_timeout_) +
-                    " s): " + out.reason;
-    publishState("idle: goal aborted: " + out.reason);
-    ROS_ERROR("controller_node: repeat_route aborted: %s", result.reason.c_str());
-    action_server_->setAborted(result, result.reason);
+    abortGoal("stopped for more than stop_abort_timeout (" + std::to_string(stop_abort_timeout_) + " s): " + out.reason);
   }
 }
 
 void ControllerNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  if (!pending_destination_.empty()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for the way to " + pending_destination_ + ": " + plan_reason_);
+    return;
+  }
   if (!follower_) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "idle: no route");
     return;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/PlanWay.h"
+#include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
@@ -18,6 +20,11 @@ void ControllerNode::startRoute(const std::string& directory, const RouteFollowe
   if (!route) throw std::runtime_error(route.status().message());
   std::vector<Pose2D> goals;
   for (const auto& k : route->keyframes) goals.push_back(k.pose);
+  startFollowing(goals, options, "route '" + directory + "'");
+}
+
+void ControllerNode::startFollowing(const std::vector<Pose2D>& goals, const RouteFollowerOptions& options,
+                                    const std::string& what) {
   try {
     RouteFollower follower(goals, options);
     std::lock_guard<std::mutex> lock(mutex_);
@@ -25,12 +32,109 @@ void ControllerNode::startRoute(const std::string& directory, const RouteFollowe
     last_output_ = FollowOutput();
     stopped_since_ = -1.0;
   } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(std::string("route '") + directory + "': " + e.what());
+    throw std::runtime_error(what + ": " + e.what());
   }
+}
+
+void ControllerNode::abortGoal(const std::string& reason) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    follower_.reset();
+  }
+  pending_destination_.clear();
+  command_publisher_.publish(geometry_msgs::Twist());
+  publishState("idle: goal aborted: " + reason);
+  ROS_ERROR("controller_node: repeat_route aborted: %s", reason.c_str());
+  RepeatRouteResult result;
+  result.reached = false;
+  result.reason = reason;
+  result.progress = 100.0 * last_output_.progress;
+  if (action_server_->isActive()) action_server_->setAborted(result, result.reason);
+}
+
+void ControllerNode::planWay(const ros::Time& now) {
+  const double waited = (now - destination_since_).toSec();
+  RepeatRouteFeedback feedback;
+  feedback.goal_index = -1;
+  feedback.reference_index = -1;
+  feedback.state = relocalizing_ ? "searching" : "waiting";
+  if (now < next_plan_) {
+    // Between two questions: stand, or turn in place so that the camera sees more of the map.
+    geometry_msgs::Twist command;
+    if (relocalizing_) command.angular.z = relocalization_turn_speed_;
+    command_publisher_.publish(command);
+    feedback.reason = plan_reason_;
+    action_server_->publishFeedback(feedback);
+    return;
+  }
+  next_plan_ = now + ros::Duration(plan_retry_period_);
+  command_publisher_.publish(geometry_msgs::Twist());  // the call may take a while: standing
+  PlanWay plan;
+  plan.request.destination = pending_destination_;
+  if (!plan_way_client_.exists() || !plan_way_client_.call(plan)) {
+    plan_reason_ = "no answer from the service " + plan_way_client_.getService() +
+                   " (repeat_node with map_directory, remapped to plan_way)";
+    relocalizing_ = false;
+    if (waited > stop_abort_timeout_) abortGoal(plan_reason_);
+    else publishState("waiting: " + plan_reason_);
+    return;
+  }
+  const PlanWay::Response& way = plan.response;
+  if (way.outcome == PlanWay::Response::NOT_PLACED) {
+    relocalizing_ = true;
+    plan_reason_ = way.reason;
+    if (waited > relocalization_timeout_) {
+      abortGoal("no place within relocalization_timeout (" + std::to_string(relocalization_timeout_) + " s): " + way.reason);
+    } else {
+      publishState("searching: " + way.reason);
+    }
+    return;
+  }
+  relocalizing_ = false;
+  if (!way.success) {
+    abortGoal("goal refused: " + way.reason);
+    return;
+  }
+  std::vector<Pose2D> goals;
+  for (const auto& pose : way.path.poses) {
+    const auto planar = ros_conversions::toPose2D(pose.pose);
+    if (!planar) {
+      abortGoal("the planned way has a bad pose: " + planar.status().message());
+      return;
+    }
+    goals.push_back(*planar);
+  }
+  RouteFollowerOptions options = options_;
+  options.start_index = 0;
+  options.end_index = -1;
+  options.laps = 1;
+  try {
+    startFollowing(goals, options, "the way to " + pending_destination_);
+  } catch (const std::exception& e) {
+    abortGoal(e.what());
+    return;
+  }
+  ROS_INFO("controller_node: %s", way.reason.c_str());
+  pending_destination_.clear();
 }
 
 void ControllerNode::onGoal() {
   const auto goal = action_server_->acceptNewGoal();
+  if (!goal->destination.empty()) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      follower_.reset();
+    }
+    pending_destination_ = goal->destination;
+    destination_since_ = ros::Time::now();
+    next_plan_ = destination_since_;
+    relocalizing_ = false;
+    plan_reason_ = "asking repeat_node for the way";
+    publishState("waiting: planning the way to " + pending_destination_);
+    ROS_INFO("controller_node: repeat_route goal: to %s through the map of routes", pending_destination_.c_str());
+    return;
+  }
+  pending_destination_.clear();
   RouteFollowerOptions options = options_;
   options.start_index = goal->start_index;
   options.end_index = goal->end_index;
@@ -56,6 +160,7 @@ void ControllerNode::onPreempt() {
     std::lock_guard<std::mutex> lock(mutex_);
     follower_.reset();
   }
+  pending_destination_.clear();
   command_publisher_.publish(geometry_msgs::Twist());
   publishState("idle: goal preempted");
   RepeatRouteResult result;

@@ -43,44 +43,25 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
     ROS_WARN("repeat_node: keep_freed_memory: this C library's malloc cannot be set to keep freed memory; "
              "frames that detect features may take 2-3 times as long (docs/design.md, \"Frame buffers\")");
   }
-  const std::string directory = readRequiredParameter<std::string>(private_nh, "route_directory");
   const RepeatPipelineOptions options = readRepeatPipelineOptions(private_nh);
-  const auto route = loadRoute(directory);
-  if (!route) throw std::runtime_error(route.status().message());
-  taught_camera_to_level_ = route->info.camera.camera_to_level;
-  auto pipeline = RepeatPipeline::create(*route, options);
-  if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
-  pipeline_.emplace(std::move(*pipeline));
-  pipeline_->warmUp();
-  // Routes that learn (docs/route_format.md, "Experiences").
-  if (const auto learning = readExperienceLearningOptions(private_nh)) {
-    route_ = *route;
-    std::vector<Pose2D> poses;
-    for (const auto& k : route->keyframes) poses.push_back(k.pose);
-    recorder_.emplace(poses, *learning);
-    experience_extractor_.emplace(FeatureOptions{route->info.feature_type, options.localization.max_features});
-    save_experiences_service_ = private_nh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
-        "save_experiences", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          bool ok = false;
-          response.message = saveExperiences(&ok);
-          response.success = ok;
-          return true;
-        });
-    ROS_INFO("repeat_node: learning: views where a keyframe matches with fewer than %d inliers are added to the route "
-             "(at most %d per keyframe)",
-             learning->learn_below_inliers, learning->max_experiences);
+  const std::string route_directory = readParameter<std::string>(private_nh, "route_directory", "");
+  const std::string map_directory = readParameter<std::string>(private_nh, "map_directory", "");
+  if (route_directory.empty() && map_directory.empty()) {
+    throw std::runtime_error("required parameter '" + private_nh.resolveName("route_directory") +
+                             "' is not set (a taught route; or map_directory, a map of routes)");
   }
-  if (pipeline_->localizer().experienceCount() > 0) {
-    ROS_INFO("repeat_node: the route has %d learned views (experiences) besides its keyframes",
-             pipeline_->localizer().experienceCount());
+  if (!route_directory.empty() && !map_directory.empty()) {
+    throw std::runtime_error("route_directory and map_directory are both set: repeat one route or a map of routes");
   }
+  if (map_directory.empty()) startRoute(route_directory, options);
+  else startMap(map_directory, options);
 
   pose_publisher_ = private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 5);
   heading_publisher_ = private_nh_.advertise<HeadingCorrectionStamped>("heading_correction", 5);
   integrity_publisher_ = private_nh_.advertise<Integrity>("integrity", 5);
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("route_markers", 1, /*latch=*/true);
-  publishMarkers(pipeline_->localizer().trackedKeyframe());
+  if (route_pipeline_) publishMarkers(route_pipeline_->localizer().trackedKeyframe());
+  if (navigator_) publishMapMarkers();
   image_transport::ImageTransport private_transport(private_nh_);
   debug_publisher_ = private_transport.advertise("debug_image", 1);
   odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
@@ -123,11 +104,49 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   writeRepeatTunables(options.localization, config);
   reconfigure_server_->updateConfig(config);
   reconfigure_server_->setCallback([this](RepeatConfig& c, uint32_t level) { onReconfigure(c, level); });
-  ROS_INFO("repeat_node: route '%s' with %d keyframes, mode %s", directory.c_str(),
-           pipeline_->localizer().keyframeCount(), toString(options.localization.mode).c_str());
-  if (!pipeline_->hybridNotes().empty()) {
-    ROS_WARN("repeat_node: hybrid mode runs on what the route has: %s", pipeline_->hybridNotes().c_str());
+}
+
+void RepeatNode::startRoute(const std::string& directory, const RepeatPipelineOptions& options) {
+  const auto route = loadRoute(directory);
+  if (!route) throw std::runtime_error(route.status().message());
+  taught_camera_to_level_ = route->info.camera.camera_to_level;
+  auto pipeline = RepeatPipeline::create(*route, options);
+  if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
+  route_pipeline_.emplace(std::move(*pipeline));
+  route_pipeline_->warmUp();
+  // Routes that learn (docs/route_format.md, "Experiences").
+  if (const auto learning = readExperienceLearningOptions(private_nh_)) {
+    route_ = *route;
+    std::vector<Pose2D> poses;
+    for (const auto& k : route->keyframes) poses.push_back(k.pose);
+    recorder_.emplace(poses, *learning);
+    experience_extractor_.emplace(FeatureOptions{route->info.feature_type, options.localization.max_features});
+    save_experiences_service_ = private_nh_.advertiseService<std_srvs::Trigger::Request, std_srvs::Trigger::Response>(
+        "save_experiences", [this](std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          bool ok = false;
+          response.message = saveExperiences(&ok);
+          response.success = ok;
+          return true;
+        });
+    ROS_INFO("repeat_node: learning: views where a keyframe matches with fewer than %d inliers are added to the route "
+             "(at most %d per keyframe)",
+             learning->learn_below_inliers, learning->max_experiences);
   }
+  if (route_pipeline_->localizer().experienceCount() > 0) {
+    ROS_INFO("repeat_node: the route has %d learned views (experiences) besides its keyframes",
+             route_pipeline_->localizer().experienceCount());
+  }
+  ROS_INFO("repeat_node: route '%s' with %d keyframes, mode %s", directory.c_str(),
+           route_pipeline_->localizer().keyframeCount(), toString(options.localization.mode).c_str());
+  if (!route_pipeline_->hybridNotes().empty()) {
+    ROS_WARN("repeat_node: hybrid mode runs on what the route has: %s", route_pipeline_->hybridNotes().c_str());
+  }
+}
+
+RepeatPipeline* RepeatNode::pipeline() {
+  if (navigator_) return navigator_->pipeline();
+  return route_pipeline_ ? &*route_pipeline_ : nullptr;
 }
 
 RepeatNode::~RepeatNode() {
@@ -153,7 +172,8 @@ std::string RepeatNode::saveExperiences(bool* ok) {
 
 void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const RepeatOptions current = pipeline_->options().localization;
+  const RepeatOptions current =
+      navigator_ ? navigator_->options().repeat.localization : route_pipeline_->options().localization;
   RepeatOptions options = current;
   Status changed;
   try {
@@ -170,7 +190,8 @@ void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
         unchanged.max_degraded_frames == config.max_degraded_frames) {
       return;  // the initial callback, or nothing changed
     }
-    changed = pipeline_->reconfigure(options);  // a mode change loads other keyframe data
+    // A mode change loads other keyframe data.
+    changed = navigator_ ? navigator_->reconfigure(options) : route_pipeline_->reconfigure(options);
   } catch (const std::invalid_argument& e) {
     changed = Status(StatusCode::kInvalidInput, e.what());
   }
@@ -188,7 +209,10 @@ void RepeatNode::onReconfigure(RepeatConfig& config, uint32_t /*level*/) {
 void RepeatNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
   const auto pose = ros_conversions::toPose2D(odometry->pose.pose);
   std::lock_guard<std::mutex> lock(mutex_);
-  const Status added = pose ? pipeline_->addOdometry(odometry->header.stamp.toSec(), *pose) : pose.status();
+  const double stamp = odometry->header.stamp.toSec();
+  const Status added = !pose      ? pose.status()
+                       : navigator_ ? navigator_->addOdometry(stamp, *pose)
+                                    : route_pipeline_->addOdometry(stamp, *pose);
   if (!added.isOk()) ROS_WARN_THROTTLE(5.0, "repeat_node: odometry rejected: %s", added.message().c_str());
 }
 
@@ -201,8 +225,13 @@ void RepeatNode::onImage(const sensor_msgs::ImageConstPtr& image, const sensor_m
   std::lock_guard<std::mutex> lock(mutex_);
   last_image_arrival_ = ros::Time::now();
   const auto cv_image = ros_conversions::toCvImage(image);
-  const RepeatFrameResult result =
-      pipeline_->processFrame(image->header.stamp.toSec(), cv_image, ros_conversions::toPinholeCamera(*camera_info));
+  if (navigator_) {
+    const auto localize = processMapFrame(image, cv_image, ros_conversions::toPinholeCamera(*camera_info));
+    timing_.add(FrameTiming{1e3 * (ros::WallTime::now() - started).toSec(), age_ms, localize});
+    return;
+  }
+  const RepeatFrameResult result = route_pipeline_->processFrame(image->header.stamp.toSec(), cv_image,
+                                                                 ros_conversions::toPinholeCamera(*camera_info));
   publish(image, result, cv_image);
   if (recorder_ && cv_image) {
     if (const auto observation = observationOf(image->header.stamp.toSec(), *cv_image, result)) {

@@ -9,21 +9,30 @@
 namespace homography_teach_repeat {
 
 double RepeatNode::cameraSilence() const {
-  const bool images = pipeline_->statistics().frames > 0;
+  const bool images = !last_image_arrival_.isZero();
   if (!images && start_time_.isZero()) return 0.0;  // simulated clock not started yet
   return (ros::Time::now() - (images ? last_image_arrival_ : start_time_)).toSec();
 }
 
 void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const RepeatStatistics& s = pipeline_->statistics();
+  static const RepeatStatistics kNoRepeat;
+  const RepeatPipeline* repeat = pipeline();
+  const RepeatStatistics& s = repeat != nullptr ? repeat->statistics() : kNoRepeat;
   const double silence = cameraSilence();
+  if (navigator_) addMapDiagnostics(stat);
   if (silence > image_timeout_) {
     // A camera that stops is an error: no pose is published and the controller stops the robot.
     char text[160];
     std::snprintf(text, sizeof text, "%s: no image for %.1f s (image_timeout %.1f s)",
-                  s.frames > 0 ? "camera stopped" : "waiting for the camera", silence, image_timeout_);
-    stat.summary(s.frames > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::WARN, text);
+                  last_image_arrival_.isZero() ? "waiting for the camera" : "camera stopped", silence, image_timeout_);
+    const bool images = !last_image_arrival_.isZero();
+    stat.summary(images ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::WARN, text);
+  } else if (repeat == nullptr) {
+    // A map, no way followed yet: relocalizing (LOST), or placed and waiting for a destination.
+    stat.summary(last_integrity_.level == IntegrityLevel::kOk ? diagnostic_msgs::DiagnosticStatus::OK
+                                                               : diagnostic_msgs::DiagnosticStatus::WARN,
+                 last_integrity_.reason);
   } else if (!s.last_status.isOk()) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, s.last_status.toString());
   } else if (s.last_degraded) {
@@ -47,7 +56,7 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.addf("integrity NIS per dof (fixes)", "%.2f (%d)", last_integrity_.nis_per_dof, last_integrity_.nis_count);
   stat.addf("integrity time / distance without a fix [s, m]", "%.1f, %.2f", last_integrity_.time_without_fix,
             last_integrity_.distance_without_fix);
-  if (!pipeline_->hybridNotes().empty()) stat.add("hybrid: missing from the route", pipeline_->hybridNotes());
+  if (repeat != nullptr && !repeat->hybridNotes().empty()) stat.add("hybrid: missing from the route", repeat->hybridNotes());
   stat.add("failures", s.failures);
   stat.add("degraded frames", s.degraded);
   stat.add("poses refused by the odometry gate", s.gated);
@@ -70,7 +79,7 @@ void RepeatNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper&
   stat.addf("frames tracked by optical flow", "%zu of the last %zu", timing_.trackedFrames(), timing_.size());
   stat.add("last inliers", s.last_inliers);
   stat.add("reference keyframe", s.last_keyframe);
-  stat.add("tracked keyframe", pipeline_->localizer().trackedKeyframe());
+  stat.add("tracked keyframe", repeat != nullptr ? repeat->localizer().trackedKeyframe() : -1);
 }
 
 }  // namespace homography_teach_repeat

@@ -24,7 +24,7 @@ void RepeatNode::publish(const sensor_msgs::ImageConstPtr& image, const RepeatFr
   publishIntegrity(integrity_header, result.integrity, result.fixes, /*camera_silent=*/false);
   HeadingCorrectionStamped heading;
   heading.header = image->header;
-  heading.mode = toString(pipeline_->options().localization.mode);
+  heading.mode = toString(pipeline()->options().localization.mode);
   heading.reference_index = -1;
   heading.ok = result.estimate.has_value();
   heading.status = heading.ok ? "ok" : result.status.toString();
@@ -74,7 +74,7 @@ void RepeatNode::publishDebugImage(const sensor_msgs::ImageConstPtr& image, cons
   if (estimate != nullptr && estimate->keyframe >= 0 && estimate->keyframe != debug_keyframe_) {
     debug_keyframe_ = estimate->keyframe;
     debug_reference_ = cv::Mat();
-    const auto reference = loadKeyframeImage(pipeline_->localizer().route(), static_cast<std::size_t>(estimate->keyframe));
+    const auto reference = loadKeyframeImage(pipeline()->localizer().route(), static_cast<std::size_t>(estimate->keyframe));
     if (!reference) {
       ROS_WARN_THROTTLE(10.0, "repeat_node: debug_image without its reference keyframe: %s",
                         reference.status().toString().c_str());
@@ -117,8 +117,23 @@ void RepeatNode::publishIntegrity(const std_msgs::Header& header, const Integrit
 
 void RepeatNode::publishMarkers(int current_keyframe) {
   marked_keyframe_ = current_keyframe;
-  marker_publisher_.publish(
-      ros_conversions::routeMarkers(pipeline_->localizer().route(), current_keyframe, map_frame_, ros::Time::now()));
+  const RepeatPipeline* repeat = pipeline();
+  if (repeat == nullptr) return;
+  if (!navigator_) {
+    marker_publisher_.publish(
+        ros_conversions::routeMarkers(repeat->localizer().route(), current_keyframe, map_frame_, ros::Time::now()));
+    return;
+  }
+  // The way's keyframes are in the frame of its first route: shown in the map frame.
+  Route way = repeat->localizer().route();
+  const std::vector<Pose2D> poses = navigator_->wayInMap();
+  for (std::size_t k = 0; k < way.keyframes.size() && k < poses.size(); ++k) way.keyframes[k].pose = poses[k];
+  visualization_msgs::MarkerArray markers = ros_conversions::routeMarkers(way, current_keyframe, map_frame_, ros::Time::now());
+  visualization_msgs::Marker clear;  // the previous way's markers (a shorter way leaves some)
+  clear.header.frame_id = map_frame_;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  markers.markers.insert(markers.markers.begin(), clear);
+  marker_publisher_.publish(markers);
 }
 
 }  // namespace homography_teach_repeat

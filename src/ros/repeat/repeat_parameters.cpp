@@ -92,6 +92,26 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
   return o;
 }
 
+RelocalizationOptions readRelocalizationOptions(const ros::NodeHandle& nh) {
+  RelocalizationOptions o;
+  readParameters(nh, [&] {
+    o.candidates = readParameter(nh, "relocalization_candidates", o.candidates);
+    o.checks_per_frame = readParameter(nh, "relocalization_checks_per_frame", o.checks_per_frame);
+    o.confirmations = readParameter(nh, "relocalization_confirmations", o.confirmations);
+    o.confirmation_distance = readParameter(nh, "relocalization_confirmation_distance", o.confirmation_distance);
+    o.confirmation_turn = readParameter(nh, "relocalization_confirmation_turn", o.confirmation_turn);
+    o.gate_distance = readParameter(nh, "relocalization_gate_distance", o.gate_distance);
+    o.gate_yaw = readParameter(nh, "relocalization_gate_yaw", o.gate_yaw);
+    o.max_hypotheses = readParameter(nh, "relocalization_max_hypotheses", o.max_hypotheses);
+    o.cached_keyframes = static_cast<std::size_t>(readCheckedParameter(
+        nh, "relocalization_cached_keyframes", static_cast<int>(o.cached_keyframes), [](int n) { return n >= 1; },
+        "must be at least 1"));
+    o.hint_radius = readParameter(nh, "relocalization_hint_radius", o.hint_radius);
+    o.validate();
+  });
+  return o;
+}
+
 std::optional<ExperienceLearningOptions> readExperienceLearningOptions(const ros::NodeHandle& nh) {
   if (!readParameter(nh, "learn_experiences", false)) return std::nullopt;
   ExperienceLearningOptions o;
