@@ -69,6 +69,7 @@ class MapTeach {
   // The last keyframe's relocalization verdict (for live status), when located.
   const std::optional<Relocalization>& lastLocation() const { return last_location_; }
   const Route& route() const { return session_.route(); }
+  const TeachSession& session() const { return session_; }
 
  private:
   MapTeach(RouteMap map, TeachSession session, std::optional<MapRelocalizer> relocalizer, MapTeachOptions options,

@@ -9,6 +9,10 @@
 //             finished route's weak keyframes are named (route_audit.h)
 // Services:   ~finish (std_srvs/Trigger): estimates the planes (if first_plane_distance > 0),
 //             writes them into the route and stops recording; also run on clean shutdown.
+// Into a map of routes (~map_directory + ~route_name instead of ~route_directory; MapTeach,
+//             network/map_teach.h): every keyframe is also located in the map; ~status says where
+//             (map_place) and where the route touches taught ground; ~finish commits the route
+//             and the junctions measured there (docs/nodes/teach_node.md, "Teaching into a map").
 // Parameters: see config/teach_node.yaml
 // Images and odometry are synchronised by timestamp (odometry interpolated at the image stamp),
 // never by arrival order; an image whose stamp has no odometry yet is dropped with a warning.
@@ -33,6 +37,7 @@
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 #include "homography_teach_repeat/geometry/odometry_buffer.h"
 #include "homography_teach_repeat/common/status.h"
+#include "homography_teach_repeat/network/map_teach.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 
@@ -52,11 +57,20 @@ class TeachNode {
   bool onFinish(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
   Status startSession(const sensor_msgs::CameraInfo& camera_info);
   Status finish(std::string* summary);
+  // The session recording the route (alone or into the map); nullptr before the first image.
+  const TeachSession* session() const;
+  // Map mode (teach_node_map.cpp): the map and its place index read at start-up; the session
+  // started at the first image; where the last keyframe is; the commit at finish.
+  void prepareMap();
+  Status startMapSession(const CameraCalibration& calibration, const Pose2D& mount);
+  std::string describeMapPlace();
+  Status finishMap(std::string* summary);
   void publishStatus(const std::string& state, const std::string& message);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
+  std::string map_directory_;  // empty: one route (route_directory)
   TeachOptions options_;
   std::string base_frame_;
   double max_camera_tilt_rad_ = 0.05;
@@ -64,6 +78,12 @@ class TeachNode {
 
   std::mutex mutex_;  // image, odometry and service callbacks may run concurrently
   std::optional<TeachSession> session_;
+  std::string route_name_;  // map mode
+  std::optional<RouteMap> map_;
+  std::optional<PlaceIndex> map_index_;
+  MapTeachOptions map_options_;
+  std::optional<MapTeach> map_teach_;
+  std::size_t map_contacts_ = 0;
   OdometryBuffer odometry_;
   bool finished_ = false;
   std::string state_ = "waiting";

@@ -7,61 +7,15 @@
 #include "homography_teach_repeat/TeachStatus.h"
 #include "homography_teach_repeat/ros/conversions.h"
 #include "homography_teach_repeat/ros/parameters.h"
+#include "homography_teach_repeat/ros/teach_parameters.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
-namespace {
-
-TeachOptions readTeachOptions(const ros::NodeHandle& nh) {
-  TeachOptions options;
-  readParameters(nh, [&] {
-    options.route_directory = readRequiredParameter<std::string>(nh, "route_directory");
-    options.overwrite = readParameter(nh, "overwrite", options.overwrite);
-    options.features.type = featureTypeFromString(
-        readParameter<std::string>(nh, "feature_type", toString(options.features.type)));
-    if (!isFeatureTypeAvailable(options.features.type)) {
-      throw std::invalid_argument("feature_type '" + toString(options.features.type) +
-                                  "' is not available in this OpenCV build; available: " +
-                                  availableFeatureTypes());
-    }
-    options.features.max_features = readParameter(nh, "max_features", 1500);
-    options.keyframes.distance = readParameter(nh, "keyframe_distance", options.keyframes.distance);
-    options.keyframes.angle = readParameter(nh, "keyframe_angle", options.keyframes.angle);
-    options.first_plane_distance =
-        readParameter(nh, "first_plane_distance", options.first_plane_distance);
-    options.planes_from_odometry = readParameter(nh, "planes_from_odometry", options.planes_from_odometry);
-    options.estimate_keyframe_tilt = readParameter(nh, "estimate_keyframe_tilt", options.estimate_keyframe_tilt);
-    options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
-    options.lines.max_angle_deg =
-        readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
-    options.lines.min_length_px = readParameter(nh, "line_min_length_px", options.lines.min_length_px);
-    options.validate();
-  });
-  // A directory the route cannot be written to stops the node now, not at the first keyframe.
-  const Status writable = checkRouteDirectoryWritable(options.route_directory, options.overwrite);
-  if (!writable.isOk()) {
-    throw std::runtime_error("route_directory (" + nh.getNamespace() + "): " + writable.message());
-  }
-  return options;
-}
-
-// The thresholds of the teach node's warnings (the rest of the audit keeps its defaults).
-RouteAuditOptions readAuditOptions(const ros::NodeHandle& nh) {
-  RouteAuditOptions audit;
-  readParameters(nh, [&] {
-    audit.min_plane_features = readParameter(nh, "audit_min_features", audit.min_plane_features);
-    audit.min_lines = readParameter(nh, "audit_min_lines", audit.min_lines);
-    audit.validate();
-  });
-  return audit;
-}
-
-}  // namespace
-
 TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_nh)
     : nh_(nh),
       private_nh_(private_nh),
-      options_(readTeachOptions(private_nh)),
+      map_directory_(readParameter<std::string>(private_nh, "map_directory", "")),
+      options_(readTeachOptions(private_nh, !map_directory_.empty())),
       base_frame_(readParameter<std::string>(private_nh, "base_frame", "base_link")),
       max_camera_tilt_rad_(readParameter(private_nh, "max_camera_tilt", 0.05)),
       audit_(readAuditOptions(private_nh)),
@@ -69,6 +23,7 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
                 readParameter(private_nh, "max_odometry_gap", 0.5)),
       tf_listener_(tf_buffer_),
       diagnostics_(nh, private_nh) {
+  if (!map_directory_.empty()) prepareMap();
   status_publisher_ = private_nh_.advertise<TeachStatus>("status", 1, /*latch=*/true);
   publishStatus("waiting", "waiting for camera/image_raw, camera/camera_info and odom");
   odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
@@ -84,14 +39,15 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
   diagnostics_.add("teach", this, &TeachNode::produceDiagnostics);
   diagnostics_timer_ =
       nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
-  ROS_INFO("teach_node: recording to '%s' (%s features, keyframe every %.2f m or %.2f rad)",
-           options_.route_directory.c_str(), toString(options_.features.type).c_str(),
-           options_.keyframes.distance, options_.keyframes.angle);
+  ROS_INFO("teach_node: recording %s (%s features, keyframe every %.2f m or %.2f rad)",
+           map_directory_.empty() ? ("to '" + options_.route_directory + "'").c_str()
+                                  : ("route '" + route_name_ + "' into the map '" + map_directory_ + "'").c_str(),
+           toString(options_.features.type).c_str(), options_.keyframes.distance, options_.keyframes.angle);
 }
 
 TeachNode::~TeachNode() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (session_ && !finished_) {
+  if (session() != nullptr && !finished_) {
     std::string summary;
     const Status status = finish(&summary);
     if (status.isOk()) {
@@ -132,10 +88,16 @@ Status TeachNode::startSession(const sensor_msgs::CameraInfo& camera_info) {
     ROS_INFO("teach_node: the camera is tilted %.2f deg from level (tf %s -> %s): its images are levelled",
              mount->tilt_rad * 180.0 / M_PI, base_frame_.c_str(), camera_info.header.frame_id.c_str());
   }
+  if (!map_directory_.empty()) return startMapSession(calibration, mount_pose);
   auto session = TeachSession::start(options_, calibration, mount_pose);
   if (!session) return session.status();
   session_.emplace(std::move(*session));
   return Status::ok();
+}
+
+const TeachSession* TeachNode::session() const {
+  if (map_teach_) return &map_teach_->session();
+  return session_ ? &*session_ : nullptr;
 }
 
 void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
@@ -145,7 +107,7 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
   std::lock_guard<std::mutex> lock(mutex_);
   ++images_;
   if (finished_) return;
-  if (!session_) {
+  if (session() == nullptr) {
     const Status started = startSession(*camera_info);
     if (!started.isOk()) {
       last_error_ = started;
@@ -171,7 +133,7 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
                       pose.status().toString().c_str());
     return;
   }
-  const auto stored = session_->offer(*cv_image, *pose, stamp);
+  const auto stored = map_teach_ ? map_teach_->offer(*cv_image, *pose, stamp) : session_->offer(*cv_image, *pose, stamp);
   if (!stored) {
     ++dropped_;
     last_error_ = stored.status();
@@ -180,31 +142,34 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
     return;
   }
   if (*stored) {
-    const auto& k = session_->route().keyframes.back();
+    const auto& k = session()->route().keyframes.back();
     ROS_INFO("teach_node: keyframe %d at (%.2f, %.2f, %.1f deg), t = %.3f", k.index, k.pose.x,
              k.pose.y, k.pose.yaw * 180.0 / M_PI, stamp);
     // A keyframe the repeat will find little in: said now, while the driver can still slow down,
     // turn the camera towards texture or re-drive the stretch (docs/route_audit.md).
     std::string weak;
-    for (const auto& w : storedKeyframeWeaknesses(session_->lastStored().features, session_->lastStored().lines, audit_)) {
+    const auto& counts = session()->lastStored();
+    for (const auto& w : storedKeyframeWeaknesses(counts.features, counts.lines, audit_)) {
       weak += (weak.empty() ? "" : "; ") + w;
     }
+    const std::string where = map_teach_ ? "; " + describeMapPlace() : "";
     if (weak.empty()) {
-      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored");
+      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored" + where);
     } else {
       ++weak_keyframes_;
       char where[96];
       std::snprintf(where, sizeof(where), "keyframe %d at (%.2f, %.2f) is weak: ", k.index, k.pose.x, k.pose.y);
       last_weak_ = where + weak;
       ROS_WARN("teach_node: %s (slow down, face more texture or re-drive this stretch)", last_weak_.c_str());
-      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored; " + last_weak_);
+      publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored; " + last_weak_ + where);
     }
   }
 }
 
 Status TeachNode::finish(std::string* summary) {
-  if (!session_) return Status(StatusCode::kInvalidInput, "no keyframe recorded: nothing to finish");
+  if (session() == nullptr) return Status(StatusCode::kInvalidInput, "no keyframe recorded: nothing to finish");
   finished_ = true;
+  if (map_teach_) return finishMap(summary);
   if (!options_.planes_from_odometry && !(options_.first_plane_distance > 0.0)) {
     *summary = std::to_string(session_->keyframeCount()) +
                " keyframes; no planes (first_plane_distance is 0)";
@@ -222,7 +187,7 @@ Status TeachNode::finish(std::string* summary) {
   // The audit of the finished route (without the n² aliasing check: route_info has it).
   RouteAuditOptions audit = audit_;
   audit.aliasing = false;
-  const auto audited = auditRoute(session_->route(), audit);
+  const auto audited = auditRoute(session()->route(), audit);
   if (!audited) {
     ROS_WARN("teach_node: route audit failed: %s", audited.status().toString().c_str());
   } else {
@@ -262,8 +227,10 @@ void TeachNode::publishStatus(const std::string& state, const std::string& messa
   last_message_ = message;
   TeachStatus status;
   status.header.stamp = ros::Time::now();
-  status.route_directory = options_.route_directory;
-  status.keyframes = session_ ? static_cast<uint32_t>(session_->keyframeCount()) : 0;
+  status.route_directory = session() != nullptr ? session()->route().directory : options_.route_directory;
+  status.keyframes = session() != nullptr ? static_cast<uint32_t>(session()->keyframeCount()) : 0;
+  if (map_teach_ && map_teach_->onMap()) status.map_place = toString(*map_teach_->onMap());
+  status.map_contacts = static_cast<uint32_t>(map_contacts_);
   status.state = state;
   status.message = message;
   status_publisher_.publish(status);
@@ -282,10 +249,14 @@ void TeachNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& 
   }
   if (camera_subscriber_) camera_subscriber_->addDiagnostics(stat);
   stat.add("state", state_);
-  stat.add("keyframes", session_ ? session_->keyframeCount() : 0);
+  stat.add("keyframes", session() != nullptr ? session()->keyframeCount() : 0);
   stat.add("images", images_);
   stat.add("dropped images", dropped_);
-  stat.add("route", options_.route_directory);
+  stat.add("route", map_directory_.empty() ? options_.route_directory : route_name_ + " in the map " + map_directory_);
+  if (map_teach_) {
+    stat.add("on the map at", map_teach_->onMap() ? toString(*map_teach_->onMap()) : std::string("new ground"));
+    stat.add("contacts with taught ground", map_contacts_);
+  }
   stat.add("last problem", last_error_.isOk() ? std::string("none") : last_error_.toString());
   stat.add("weak keyframes", weak_keyframes_);
   stat.add("last weak keyframe", last_weak_.empty() ? std::string("none") : last_weak_);

@@ -1,0 +1,68 @@
+// Teaching into a map in the simulator (test/launch/map_teach_sim.test): teach_node with
+// map_directory records "spur", which starts on the map's route "room" and leaves it; judged by the
+// map on disk after ~finish and the simulator's truth (both routes' odometry frames are the world
+// frame: perfect odometry started at the same pose the fixture taught "room" from).
+#include <gtest/gtest.h>
+
+#include <ros/ros.h>
+
+#include <cmath>
+#include <iostream>
+#include <string>
+
+#include "homography_teach_repeat/TeachStatus.h"
+#include "homography_teach_repeat/network/route_map.h"
+#include "node_test_helpers.h"
+
+using namespace homography_teach_repeat;
+
+TEST(MapTeachSim, TheBranchIsCommittedWithJunctionsWhereItRanOverTheRoute) {
+  ros::NodeHandle nh, private_nh("~");
+  const std::string directory = private_nh.param<std::string>("map_directory", "");
+  const double timeout = private_nh.param("timeout", 300.0);
+  std::string state, message, place;
+  unsigned contacts = 0;
+  bool seen_on_map = false;
+  ros::Subscriber status_sub = nh.subscribe<TeachStatus>("teach_node/status", 10, [&](const auto& m) {
+    state = m->state;
+    message = m->message;
+    place = m->map_place;
+    contacts = m->map_contacts;
+    if (!place.empty()) seen_on_map = true;
+  });
+  ASSERT_TRUE(test_support::spinUntil([&] { return state == "finished"; }, timeout))
+      << "teach_node state '" << state << "': " << message;
+  std::cout << "teach_node: " << message << "\n";
+  EXPECT_TRUE(seen_on_map) << "~status never named a map place";
+  EXPECT_GE(contacts, 1U);
+
+  const auto map = loadRouteMap(directory);
+  ASSERT_TRUE(map) << map.status().message();
+  ASSERT_NE(map->find("spur"), nullptr) << message;
+  EXPECT_TRUE(listRouteMapOrphans(*map).empty());
+  int junctions = 0;
+  for (const Junction& j : map->junctions) {
+    const bool from_room = j.from.route == "room" && j.to.route == "spur";
+    const bool from_spur = j.from.route == "spur" && j.to.route == "room";
+    if (!from_room && !from_spur) continue;
+    ++junctions;
+    const auto poseOf = [&](const KeyframeRef& ref) {
+      return map->find(ref.route)->route.keyframes[static_cast<std::size_t>(map->keyframePosition(ref))].pose;
+    };
+    const Pose2D truth = poseOf(j.from).inverse().compose(poseOf(j.to));
+    const double position_error = std::hypot(j.to_in_from.x - truth.x, j.to_in_from.y - truth.y);
+    const double heading_error = std::abs(wrapToPi(j.to_in_from.yaw - truth.yaw));
+    std::cout << "junction " << toString(j.from) << " -> " << toString(j.to) << ": " << position_error << " m, "
+              << heading_error * 180.0 / M_PI << " deg from the truth, " << j.inliers << " inliers\n";
+    RecordProperty("junction_" + std::to_string(junctions) + "_error_m", std::to_string(position_error));
+    EXPECT_LT(position_error, 0.05) << toString(j.from) << " -> " << toString(j.to);
+    EXPECT_LT(heading_error, M_PI / 180.0) << toString(j.from) << " -> " << toString(j.to);
+  }
+  EXPECT_GE(junctions, 1) << message;
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_map_teach_sim");
+  return RUN_ALL_TESTS();
+}
