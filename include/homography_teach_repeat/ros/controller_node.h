@@ -98,6 +98,7 @@ class ControllerNode {
   ros::Time destination_since_, next_plan_;
   std::string plan_reason_;  // why the way is not planned yet
   bool relocalizing_ = false;
+  int way_junctions_ = 0;  // of the way followed for a destination
   double plan_retry_period_ = 1.0;         // [s]
   double relocalization_timeout_ = 60.0;   // [s]
   double relocalization_turn_speed_ = 0.0; // [rad/s] turning in place while relocalizing (0: standing)

@@ -253,6 +253,7 @@ void ControllerNode::onTimer(const ros::TimerEvent&) {
   action_server_->publishFeedback(feedback);
   RepeatRouteResult result;
   result.progress = feedback.progress;
+  result.junctions_crossed = way_junctions_;
   if (out.state == FollowState::kFinished) {
     result.reached = true;
     result.reason = "reached";

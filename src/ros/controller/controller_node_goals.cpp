@@ -115,6 +115,7 @@ void ControllerNode::planWay(const ros::Time& now) {
     return;
   }
   ROS_INFO("controller_node: %s", way.reason.c_str());
+  way_junctions_ = way.junctions_crossed;
   pending_destination_.clear();
 }
 
@@ -126,6 +127,7 @@ void ControllerNode::onGoal() {
       follower_.reset();
     }
     pending_destination_ = goal->destination;
+    way_junctions_ = 0;
     destination_since_ = ros::Time::now();
     next_plan_ = destination_since_;
     relocalizing_ = false;
@@ -135,6 +137,7 @@ void ControllerNode::onGoal() {
     return;
   }
   pending_destination_.clear();
+  way_junctions_ = 0;
   RouteFollowerOptions options = options_;
   options.start_index = goal->start_index;
   options.end_index = goal->end_index;
