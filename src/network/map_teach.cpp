@@ -17,6 +17,14 @@ Expected<MapTeach> MapTeach::start(const RouteMap& map, std::optional<PlaceIndex
   TeachOptions teach = options.teach;
   teach.route_directory = (std::filesystem::path(map.directory) / relative).string();
   teach.overwrite = false;
+  // A new map has no routes/ yet (the session creates only the route's own folder).
+  std::error_code error;
+  std::filesystem::create_directories(std::filesystem::path(teach.route_directory).parent_path(), error);
+  if (error) {
+    return Status(StatusCode::kInvalidInput, "cannot create '" +
+                                                 std::filesystem::path(teach.route_directory).parent_path().string() +
+                                                 "': " + error.message());
+  }
   auto session = TeachSession::start(teach, calibration, camera_mount);
   if (!session) return session.status();
   std::optional<MapRelocalizer> relocalizer;

@@ -119,3 +119,26 @@ TEST_F(MapWithTrunk, ABadNameIsRefusedBeforeAnythingIsWritten) {
   EXPECT_EQ(refused.status().code(), StatusCode::kInvalidInput);
   EXPECT_TRUE(listRouteMapOrphans(*loadRouteMap(directory)).empty());
 }
+
+// The first route of a new map: an empty folder (no routes/ yet) becomes a map of one route.
+TEST(MapTeachNewMap, TheFirstRouteMakesTheMap) {
+  const std::string directory = makeTemporaryDirectory("htr_map_teach_new");
+  RouteMap empty;
+  empty.directory = directory + "/building";  // not even the folder exists
+  std::filesystem::create_directories(empty.directory);
+  MapTeachOptions options = branchOptions("first");
+  auto teach = MapTeach::start(empty, std::nullopt, options, syntheticCalibration(), Pose2D());
+  ASSERT_TRUE(teach.isOk()) << teach.status().toString();
+  EXPECT_FALSE(teach->locating());
+  for (int step = 0; step < 6; ++step) {
+    const PlanarPose camera = cameraAt(0.1 * step);
+    ASSERT_TRUE(teach->offer(SyntheticWall().imageAt(camera), cameraAxesToRep103(camera), 1.0 + step).isOk());
+  }
+  const auto report = teach->finish();
+  ASSERT_TRUE(report.isOk()) << report.status().toString();
+  const auto map = loadRouteMap(empty.directory);
+  ASSERT_TRUE(map.isOk()) << map.status().toString();
+  ASSERT_EQ(map->routes.size(), 1u);
+  EXPECT_EQ(map->routes.front().name, "first");
+  std::filesystem::remove_all(directory);
+}

@@ -42,6 +42,8 @@ void TeachNode::prepareMap() {
   // The folder the route will go to (new: newRouteDirectory) can be written; the probe's folder
   // is removed again, the session creates it at the first image.
   const std::filesystem::path probe = folder / newRouteDirectory(*map_, route_name_);
+  std::filesystem::create_directories(probe.parent_path(), error);
+  if (error) throw std::runtime_error("map_directory '" + map_directory_ + "': " + error.message());
   const Status writable = checkRouteDirectoryWritable(probe.string(), /*overwrite=*/false);
   std::filesystem::remove_all(probe, error);
   if (!writable.isOk()) throw std::runtime_error("map_directory '" + map_directory_ + "': " + writable.message());
