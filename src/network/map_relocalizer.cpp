@@ -46,6 +46,7 @@ void RelocalizationOptions::validate() const {
   require(retry_after_frames >= 0, "retry_after_frames must be >= 0");
   require(cached_keyframes >= 1, "cached_keyframes must be at least 1");
   require(std::isfinite(hint_radius) && hint_radius > 0.0, "hint_radius must be > 0 [m]");
+  require(std::isfinite(max_place_distance) && max_place_distance > 0.0, "max_place_distance must be > 0 [m]");
 }
 
 std::string toString(RelocalizationState state) {
@@ -208,7 +209,7 @@ std::optional<RepeatEstimate> MapRelocalizer::check(const KeyframeRef& ref, cons
     for (const KeyframeReference* view : views) {
       if (!estimator.usable(*view, (*keyframe)->position, std::nullopt)) continue;
       auto estimate = estimator.estimate(*view, (*keyframe)->position, frame, std::nullopt);
-      if (estimate && estimate->has_pose && estimate->covariance_known) {
+      if (estimate && estimate->has_pose && estimate->covariance_known && nearKeyframe(ref, estimate->base_pose)) {
         found = std::move(*estimate);
         break;
       }
@@ -216,6 +217,13 @@ std::optional<RepeatEstimate> MapRelocalizer::check(const KeyframeRef& ref, cons
   }
   result->timing.checks_ms += millisecondsSince(start);
   return found;
+}
+
+bool MapRelocalizer::nearKeyframe(const KeyframeRef& ref, const Pose2D& base_pose) const {
+  const int position = map_->keyframePosition(ref);
+  if (position < 0) return false;
+  const Pose2D& keyframe = map_->find(ref.route)->route.keyframes[static_cast<std::size_t>(position)].pose;
+  return std::hypot(base_pose.x - keyframe.x, base_pose.y - keyframe.y) <= options_.max_place_distance;
 }
 
 void MapRelocalizer::checkHypotheses(const FrameObservations& frame, const std::vector<KeyframeRef>& targets,

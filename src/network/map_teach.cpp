@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/network/map_teach.h"
 
+#include <cmath>
 #include <filesystem>
 #include <utility>
 
@@ -53,7 +54,7 @@ Expected<bool> MapTeach::offer(const cv::Mat& image, const Pose2D& odometry_pose
     last_location_.reset();
     return stored;
   }
-  if (location->state == RelocalizationState::kConfirmed) {
+  if (location->state == RelocalizationState::kConfirmed && nearItsKeyframe(*location->place)) {
     const MapContact contact{keyframe, location->place->keyframe};
     if (!stretch_last_) contacts_.push_back(contact);  // a stretch over taught ground begins
     stretch_last_ = contact;
@@ -64,6 +65,14 @@ Expected<bool> MapTeach::offer(const cv::Mat& image, const Pose2D& odometry_pose
   }
   last_location_ = std::move(*location);
   return stored;
+}
+
+bool MapTeach::nearItsKeyframe(const PlaceHypothesis& place) const {
+  const int position = map_.keyframePosition(place.keyframe);
+  if (position < 0) return false;
+  const Pose2D& keyframe = map_.find(place.keyframe.route)->route.keyframes[static_cast<std::size_t>(position)].pose;
+  return std::hypot(place.base_pose.x - keyframe.x, place.base_pose.y - keyframe.y) <= options_.contact_distance &&
+         std::abs(wrapToPi(place.base_pose.yaw - keyframe.yaw)) <= options_.contact_angle;
 }
 
 void MapTeach::closeStretch() {

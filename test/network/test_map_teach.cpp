@@ -93,6 +93,27 @@ TEST_F(MapWithTrunk, ABranchOverTaughtGroundGetsJunctionsFromTheImages) {
   }
 }
 
+// The same wall seen from 0.7 m to the side of the trunk: the robot is located (confirmed), but it
+// is not on taught ground (contact_distance 0.5 m): no contact, no junction.
+TEST_F(MapWithTrunk, AWallSeenFromBesideIsNoContact) {
+  const auto map = loadRouteMap(directory);
+  auto index = loadMapPlaceIndex(*map);
+  ASSERT_TRUE(index.isOk()) << index.status().toString();
+  auto teach = MapTeach::start(*map, std::move(*index), branchOptions("beside"), syntheticCalibration(), Pose2D());
+  ASSERT_TRUE(teach.isOk()) << teach.status().toString();
+  bool confirmed = false;
+  bool seen_on_map = false;
+  for (int step = 0; step < 16; ++step) {
+    const PlanarPose camera = cameraAt(0.1 * step, 0.7);
+    ASSERT_TRUE(teach->offer(SyntheticWall().imageAt(camera), cameraAxesToRep103(camera), 1.0 + step).isOk());
+    confirmed |= teach->lastLocation() && teach->lastLocation()->state == RelocalizationState::kConfirmed;
+    seen_on_map |= teach->onMap().has_value();
+  }
+  EXPECT_TRUE(confirmed);
+  EXPECT_FALSE(seen_on_map);
+  EXPECT_TRUE(teach->contacts().empty());
+}
+
 // Without a place index nothing is located, and the route is still committed (index built at finish).
 TEST_F(MapWithTrunk, WithoutAnIndexTheRouteIsCommittedWithoutJunctions) {
   const auto map = loadRouteMap(directory);

@@ -56,6 +56,11 @@ struct RelocalizationOptions {
   int retry_after_frames = 5;      // a proposed keyframe that failed is not checked again for this many frames
   std::size_t cached_keyframes = 256;  // keyframes kept in memory (MapKeyframeCache)
   double hint_radius = 3.0;        // [m] keyframes around a hint that are checked
+  // A check puts the robot within this distance [m] of the keyframe it checked, or it is no place:
+  // a wall seen from metres away gives a pose too loose to tell keyframes of one leg apart (in the
+  // simulator's network world two keyframes 2 m apart facing one wall 5 m away stayed rivals, and a
+  // place 1 m from its keyframe was confirmed).
+  double max_place_distance = 1.0;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -150,6 +155,8 @@ class MapRelocalizer {
   // Whether a and b are the same place: the same route and poses within the gate, or routes joined
   // by a junction through which their poses agree.
   bool samePlace(const PlaceHypothesis& a, const PlaceHypothesis& b) const;
+  // `base_pose` (in ref's route frame) is within max_place_distance of keyframe `ref`.
+  bool nearKeyframe(const KeyframeRef& ref, const Pose2D& base_pose) const;
   bool agrees(const Pose2D& predicted, const Pose2D& measured, double driven) const;
   // Sorts the hypotheses and states the verdict into `result`.
   void judge(Relocalization* result);

@@ -30,6 +30,12 @@ struct MapTeachOptions {
   RepeatOptions repeat;      // how keyframes are checked against the map and junctions measured
   RelocalizationOptions relocalization;
   bool rebuild_index = true;  // rebuild <map>/place_index.yml at finish
+  // A located keyframe is on taught ground only within this distance [m] and heading [rad] of the
+  // map keyframe it was located by: a wall seen from metres away (across a hall, into an alcove)
+  // locates the robot well, but no route switch can be made there (a junction 3 m long was found
+  // that way in the simulator's network world before this test).
+  double contact_distance = 0.5;
+  double contact_angle = 0.35;
 };
 
 // The new route's keyframe `keyframe` is at map keyframe `map_keyframe` (a stretch's first or last).
@@ -75,6 +81,8 @@ class MapTeach {
   MapTeach(RouteMap map, TeachSession session, std::optional<MapRelocalizer> relocalizer, MapTeachOptions options,
            std::string relative_directory);
   void closeStretch();
+  // The located place is within contact_distance / contact_angle of its keyframe.
+  bool nearItsKeyframe(const PlaceHypothesis& place) const;
 
   RouteMap map_;
   TeachSession session_;

@@ -107,6 +107,7 @@ RelocalizationOptions readRelocalizationOptions(const ros::NodeHandle& nh) {
         nh, "relocalization_cached_keyframes", static_cast<int>(o.cached_keyframes), [](int n) { return n >= 1; },
         "must be at least 1"));
     o.hint_radius = readParameter(nh, "relocalization_hint_radius", o.hint_radius);
+    o.max_place_distance = readParameter(nh, "relocalization_max_place_distance", o.max_place_distance);
     o.validate();
   });
   return o;
