@@ -56,11 +56,12 @@ struct RelocalizationOptions {
   int retry_after_frames = 5;      // a proposed keyframe that failed is not checked again for this many frames
   std::size_t cached_keyframes = 256;  // keyframes kept in memory (MapKeyframeCache)
   double hint_radius = 3.0;        // [m] keyframes around a hint that are checked
-  // A check puts the robot within this distance [m] of the keyframe it checked, or it is no place:
-  // a wall seen from metres away gives a pose too loose to tell keyframes of one leg apart (in the
-  // simulator's network world two keyframes 2 m apart facing one wall 5 m away stayed rivals, and a
-  // place 1 m from its keyframe was confirmed).
-  double max_place_distance = 1.0;
+  // A check puts the robot within this distance [m] of the keyframe it checked (the teach spacing),
+  // or it is no place: a wall seen from metres away gives a pose too loose to tell keyframes of one
+  // leg apart (in the simulator's network world two keyframes 2 m apart facing one wall 5 m away
+  // stayed rivals; with 1 m a robot in an alcove's opening was placed 0.86 m wrong on a route 2 m
+  // behind it that faces the same wall).
+  double max_place_distance = 0.5;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };

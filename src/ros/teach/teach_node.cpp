@@ -143,8 +143,9 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
   }
   if (*stored) {
     const auto& k = session()->route().keyframes.back();
-    ROS_INFO("teach_node: keyframe %d at (%.2f, %.2f, %.1f deg), t = %.3f", k.index, k.pose.x,
-             k.pose.y, k.pose.yaw * 180.0 / M_PI, stamp);
+    const std::string where = map_teach_ ? "; " + describeMapPlace() : "";
+    ROS_INFO("teach_node: keyframe %d at (%.2f, %.2f, %.1f deg), t = %.3f%s", k.index, k.pose.x,
+             k.pose.y, k.pose.yaw * 180.0 / M_PI, stamp, where.c_str());
     // A keyframe the repeat will find little in: said now, while the driver can still slow down,
     // turn the camera towards texture or re-drive the stretch (docs/route_audit.md).
     std::string weak;
@@ -152,14 +153,13 @@ void TeachNode::onImage(const sensor_msgs::ImageConstPtr& image,
     for (const auto& w : storedKeyframeWeaknesses(counts.features, counts.lines, audit_)) {
       weak += (weak.empty() ? "" : "; ") + w;
     }
-    const std::string where = map_teach_ ? "; " + describeMapPlace() : "";
     if (weak.empty()) {
       publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored" + where);
     } else {
       ++weak_keyframes_;
-      char where[96];
-      std::snprintf(where, sizeof(where), "keyframe %d at (%.2f, %.2f) is weak: ", k.index, k.pose.x, k.pose.y);
-      last_weak_ = where + weak;
+      char position[96];
+      std::snprintf(position, sizeof(position), "keyframe %d at (%.2f, %.2f) is weak: ", k.index, k.pose.x, k.pose.y);
+      last_weak_ = position + weak;
       ROS_WARN("teach_node: %s (slow down, face more texture or re-drive this stretch)", last_weak_.c_str());
       publishStatus("teaching", "keyframe " + std::to_string(k.index) + " stored; " + last_weak_ + where);
     }
