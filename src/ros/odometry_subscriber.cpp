@@ -1,11 +1,20 @@
 #include "homography_teach_repeat/ros/odometry_subscriber.h"
 
+#include <cmath>
+
+#include "homography_teach_repeat/ros/parameters.h"
+
 #include <algorithm>
 #include <chrono>
 #include <limits>
 #include <utility>
 
 namespace homography_teach_repeat {
+
+double readOdometryWait(const ros::NodeHandle& private_nh, double default_wait) {
+  return readCheckedParameter(private_nh, "odometry_wait", default_wait,
+                              [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 5.0; }, "must be in [0, 5] s");
+}
 
 OdometrySubscriber::OdometrySubscriber(const ros::NodeHandle& nh, const std::string& topic, Callback callback)
     : callback_(std::move(callback)) {

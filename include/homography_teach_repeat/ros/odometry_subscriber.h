@@ -19,6 +19,10 @@
 
 namespace homography_teach_repeat {
 
+// The node's ~odometry_wait [s, 0-5]: how long an image waits for the odometry of its stamp
+// (std::runtime_error naming the parameter outside that range).
+double readOdometryWait(const ros::NodeHandle& private_nh, double default_wait = 0.2);
+
 class OdometrySubscriber {
  public:
   using Callback = std::function<void(const nav_msgs::OdometryConstPtr&)>;

@@ -64,9 +64,7 @@ RepeatNode::RepeatNode(const ros::NodeHandle& nh, const ros::NodeHandle& private
   if (navigator_) publishMapMarkers();
   image_transport::ImageTransport private_transport(private_nh_);
   debug_publisher_ = private_transport.advertise("debug_image", 1);
-  odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
-                                        [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 5.0; },
-                                        "must be in [0, 5] s");
+  odometry_wait_ = readOdometryWait(private_nh, odometry_wait_);
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = std::make_unique<CameraSubscription>(

@@ -26,9 +26,7 @@ TeachNode::TeachNode(const ros::NodeHandle& nh, const ros::NodeHandle& private_n
   if (!map_directory_.empty()) prepareMap();
   status_publisher_ = private_nh_.advertise<TeachStatus>("status", 1, /*latch=*/true);
   publishStatus("waiting", "waiting for camera/image_raw, camera/camera_info and odom");
-  odometry_wait_ = readCheckedParameter(private_nh, "odometry_wait", odometry_wait_,
-                                        [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 5.0; },
-                                        "must be in [0, 5] s");
+  odometry_wait_ = readOdometryWait(private_nh, odometry_wait_);
   odometry_subscriber_ = std::make_unique<OdometrySubscriber>(
       nh_, "odom", [this](const nav_msgs::OdometryConstPtr& odometry) { onOdometry(odometry); });
   camera_subscriber_ = std::make_unique<CameraSubscription>(
