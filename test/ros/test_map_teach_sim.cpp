@@ -1,7 +1,7 @@
 // Teaching into a map in the simulator (test/launch/map_teach_sim.test): teach_node with
-// map_directory records "spur", which starts on the map's route "room" and leaves it; judged by the
-// map on disk after ~finish and the simulator's truth (both routes' odometry frames are the world
-// frame: perfect odometry started at the same pose the fixture taught "room" from).
+// map_directory records "north", which starts on the map's route "trunk", leaves it and rejoins it;
+// judged by the map on disk after ~finish and the simulator's truth (both routes' odometry frames
+// are the world frame: perfect odometry started at the world poses they were taught from).
 #include <gtest/gtest.h>
 
 #include <ros/ros.h>
@@ -16,7 +16,7 @@
 
 using namespace homography_teach_repeat;
 
-TEST(MapTeachSim, TheBranchIsCommittedWithJunctionsWhereItRanOverTheRoute) {
+TEST(MapTeachSim, ABranchThatLeavesAndRejoinsTheRouteGetsBothJunctions) {
   ros::NodeHandle nh, private_nh("~");
   const std::string directory = private_nh.param<std::string>("map_directory", "");
   const double timeout = private_nh.param("timeout", 300.0);
@@ -38,14 +38,19 @@ TEST(MapTeachSim, TheBranchIsCommittedWithJunctionsWhereItRanOverTheRoute) {
 
   const auto map = loadRouteMap(directory);
   ASSERT_TRUE(map) << map.status().message();
-  ASSERT_NE(map->find("spur"), nullptr) << message;
+  ASSERT_NE(map->find("north"), nullptr) << message;
+  const int branch_keyframes = static_cast<int>(map->find("north")->route.keyframes.size());
+  bool leaves = false, rejoins = false;
   EXPECT_TRUE(listRouteMapOrphans(*map).empty());
   int junctions = 0;
   for (const Junction& j : map->junctions) {
-    const bool from_room = j.from.route == "room" && j.to.route == "spur";
-    const bool from_spur = j.from.route == "spur" && j.to.route == "room";
-    if (!from_room && !from_spur) continue;
+    const bool from_trunk = j.from.route == "trunk" && j.to.route == "north";
+    const bool from_branch = j.from.route == "north" && j.to.route == "trunk";
+    if (!from_trunk && !from_branch) continue;
     ++junctions;
+    const int branch_keyframe = from_trunk ? j.to.keyframe : j.from.keyframe;
+    leaves = leaves || branch_keyframe < branch_keyframes / 3;
+    rejoins = rejoins || branch_keyframe >= 2 * branch_keyframes / 3;
     const auto poseOf = [&](const KeyframeRef& ref) {
       return map->find(ref.route)->route.keyframes[static_cast<std::size_t>(map->keyframePosition(ref))].pose;
     };
@@ -58,7 +63,9 @@ TEST(MapTeachSim, TheBranchIsCommittedWithJunctionsWhereItRanOverTheRoute) {
     EXPECT_LT(position_error, 0.05) << toString(j.from) << " -> " << toString(j.to);
     EXPECT_LT(heading_error, M_PI / 180.0) << toString(j.from) << " -> " << toString(j.to);
   }
-  EXPECT_GE(junctions, 1) << message;
+  EXPECT_GE(junctions, 2) << message;
+  EXPECT_TRUE(leaves) << "no junction in the first third of the branch: " << message;
+  EXPECT_TRUE(rejoins) << "no junction in the last third of the branch: " << message;
 }
 
 int main(int argc, char** argv) {
