@@ -30,7 +30,13 @@ Expected<MapTeach> MapTeach::start(const RouteMap& map, std::optional<PlaceIndex
   if (!session) return session.status();
   std::optional<MapRelocalizer> relocalizer;
   if (index && !map.routes.empty()) {
-    auto created = MapRelocalizer::create(map, std::move(index), options.repeat, options.relocalization);
+    // The relocalizer sees the stored keyframes only (0.5 m or 0.35 rad apart): a keyframe that
+    // failed while the robot turned is tried again at the next one, not 5 keyframes (2.5 m) later
+    // (the network demo's south branch rejoined the trunk over 1.6 m and was found on it only at
+    // its last keyframe, tentative: the trunk keyframes there had failed during the turn before).
+    RelocalizationOptions relocalization = options.relocalization;
+    relocalization.retry_after_frames = 0;
+    auto created = MapRelocalizer::create(map, std::move(index), options.repeat, relocalization);
     if (!created) return created.status();
     relocalizer.emplace(std::move(*created));
   }

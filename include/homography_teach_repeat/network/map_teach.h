@@ -28,7 +28,7 @@ struct MapTeachOptions {
   std::string name;          // of the route in the map (an existing name: the route is taught again)
   TeachOptions teach;        // its route_directory is chosen here (a new folder under routes/)
   RepeatOptions repeat;      // how keyframes are checked against the map and junctions measured
-  RelocalizationOptions relocalization;
+  RelocalizationOptions relocalization;  // retry_after_frames is 0 here (keyframes are sparse frames)
   bool rebuild_index = true;  // rebuild <map>/place_index.yml at finish
   // A located keyframe is on taught ground only within this distance [m] and heading [rad] of the
   // map keyframe it was located by: a wall seen from metres away (across a hall, into an alcove)
