@@ -220,10 +220,8 @@ std::optional<RepeatEstimate> MapRelocalizer::check(const KeyframeRef& ref, cons
 }
 
 bool MapRelocalizer::nearKeyframe(const KeyframeRef& ref, const Pose2D& base_pose) const {
-  const int position = map_->keyframePosition(ref);
-  if (position < 0) return false;
-  const Pose2D& keyframe = map_->find(ref.route)->route.keyframes[static_cast<std::size_t>(position)].pose;
-  return std::hypot(base_pose.x - keyframe.x, base_pose.y - keyframe.y) <= options_.max_place_distance;
+  const auto keyframe = map_->keyframePose(ref);
+  return keyframe && std::hypot(base_pose.x - keyframe->x, base_pose.y - keyframe->y) <= options_.max_place_distance;
 }
 
 void MapRelocalizer::checkHypotheses(const FrameObservations& frame, const std::vector<KeyframeRef>& targets,

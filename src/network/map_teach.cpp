@@ -74,11 +74,9 @@ Expected<bool> MapTeach::offer(const cv::Mat& image, const Pose2D& odometry_pose
 }
 
 bool MapTeach::nearItsKeyframe(const PlaceHypothesis& place) const {
-  const int position = map_.keyframePosition(place.keyframe);
-  if (position < 0) return false;
-  const Pose2D& keyframe = map_.find(place.keyframe.route)->route.keyframes[static_cast<std::size_t>(position)].pose;
-  return std::hypot(place.base_pose.x - keyframe.x, place.base_pose.y - keyframe.y) <= options_.contact_distance &&
-         std::abs(wrapToPi(place.base_pose.yaw - keyframe.yaw)) <= options_.contact_angle;
+  const auto keyframe = map_.keyframePose(place.keyframe);
+  return keyframe && std::hypot(place.base_pose.x - keyframe->x, place.base_pose.y - keyframe->y) <= options_.contact_distance &&
+         std::abs(wrapToPi(place.base_pose.yaw - keyframe->yaw)) <= options_.contact_angle;
 }
 
 void MapTeach::closeStretch() {

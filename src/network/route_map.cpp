@@ -182,6 +182,12 @@ int RouteMap::keyframePosition(const KeyframeRef& ref) const {
   return -1;
 }
 
+std::optional<Pose2D> RouteMap::keyframePose(const KeyframeRef& ref) const {
+  const int position = keyframePosition(ref);
+  if (position < 0) return std::nullopt;
+  return find(ref.route)->route.keyframes[static_cast<std::size_t>(position)].pose;
+}
+
 bool isValidRouteName(const std::string& name) {
   if (name.empty() || name.size() > 64) return false;
   return std::all_of(name.begin(), name.end(), [](char c) {

@@ -222,9 +222,9 @@ visualization_msgs::MarkerArray networkMarkers(const RouteMap& map, const std::m
   markers.markers.push_back(clear);
   const auto inMap = [&](const KeyframeRef& ref) -> std::optional<geometry_msgs::Point> {
     const auto frame = route_frames.find(ref.route);
-    const int position = map.keyframePosition(ref);
-    if (frame == route_frames.end() || position < 0) return std::nullopt;
-    const Pose2D pose = frame->second.compose(map.find(ref.route)->route.keyframes[static_cast<std::size_t>(position)].pose);
+    const auto keyframe = map.keyframePose(ref);
+    if (frame == route_frames.end() || !keyframe) return std::nullopt;
+    const Pose2D pose = frame->second.compose(*keyframe);
     geometry_msgs::Point point;
     point.x = pose.x;
     point.y = pose.y;

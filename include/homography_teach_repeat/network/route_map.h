@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -79,6 +80,8 @@ struct RouteMap {
   const MapRoute* find(const std::string& name) const;
   // The position of keyframe `ref` in its route's keyframes; -1 when the route or keyframe is not there.
   int keyframePosition(const KeyframeRef& ref) const;
+  // The base_link pose of keyframe `ref` in its route's odometry frame; nullopt when not in the map.
+  std::optional<Pose2D> keyframePose(const KeyframeRef& ref) const;
 };
 
 // Loads map.yaml and every route it names (or a single-route folder, see above). kInvalidInput
