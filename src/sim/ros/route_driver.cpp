@@ -48,14 +48,14 @@ RouteDriver::RouteDriver(const ros::NodeHandle& nh, const ros::NodeHandle& priva
     options.final_yaw = readParameter(private_nh, "final_yaw", final_yaw);
   }
   const double rate = readParameter(private_nh, "control_rate", 20.0);
-  const double start_delay = readParameter(private_nh, "start_delay", 0.0);
+  start_delay_ = std::max(0.0, readParameter(private_nh, "start_delay", 0.0));
   finish_service_ = readParameter<std::string>(private_nh, "finish_service", "");
   exit_when_done_ = readParameter(private_nh, "exit_when_done", false);
   if (!(rate > 0.0)) throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0");
   readParameters(private_nh, [&] {
     driver_.emplace(waypoints, options);
   });
-  start_after_ = ros::Time::now() + ros::Duration(std::max(0.0, start_delay));
+  start_after_ = ros::Time::now() + ros::Duration(start_delay_);
   command_publisher_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 1);
   done_publisher_ = private_nh_.advertise<std_msgs::Bool>("done", 1, /*latch=*/true);
   std_msgs::Bool done;
@@ -73,6 +73,16 @@ void RouteDriver::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 
 void RouteDriver::onTimer(const ros::TimerEvent&) {
   if (done_) return;
+  if (!finish_service_.empty() && !finisher_ready_) {
+    // The node that records (teach_node) is ready once it offers its finish service: it may first
+    // load a map and build its place index, and a drive begun before would go unrecorded.
+    if (!ros::service::exists(finish_service_, false)) {
+      ROS_INFO_THROTTLE(5.0, "route_driver: waiting for '%s' before driving", finish_service_.c_str());
+      return;
+    }
+    finisher_ready_ = true;
+    start_after_ = ros::Time::now() + ros::Duration(start_delay_);
+  }
   if (start_after_.isZero()) start_after_ = ros::Time::now();  // sim time had not started
   if (!pose_ || ros::Time::now() < start_after_) return;
   const VelocityCommand c = driver_->update(*pose_);
