@@ -64,27 +64,6 @@ class KeyframeShiftHeadingTest : public test_support::SyntheticRouteTest {
     }
     return drive;
   }
-
-  // With `options` (Fast-HD and μ out of reach) the seasonal fixes start the filter at the start
-  // keyframe and hold the heading that the odometry loses (0.003 rad per 0.1 m); without them
-  // (shift_heading false) there is no pose at all (nothing aligns the filter).
-  static void expectTheShiftHoldsTheHeadingAndNoPoseWithout(RepeatPipelineOptions options) {
-    auto with = RepeatPipeline::create(route(), options);
-    ASSERT_TRUE(with.isOk()) << with.status().toString();
-    const Drive fixed = driveWithBiasedOdometry(*with, "shift");
-    EXPECT_GE(fixed.fixes, 12);
-    EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
-    EXPECT_EQ(fixed.poses, 14);
-    EXPECT_GT(fixed.odometry_error, 0.035);
-    EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
-
-    options.shift_heading = false;
-    auto without = RepeatPipeline::create(route(), options);
-    ASSERT_TRUE(without.isOk());
-    const Drive blind = driveWithBiasedOdometry(*without, "shift");
-    EXPECT_EQ(blind.fixes, 0);
-    EXPECT_EQ(blind.poses, 0);
-  }
 };
 
 }  // namespace
@@ -145,7 +124,22 @@ TEST_F(KeyframeShiftHeadingTest, CacheAndBadInput) {
 // the start keyframe and hold the heading that the odometry loses (0.003 rad per 0.1 m); without
 // them there is no pose at all (nothing aligns the filter).
 TEST_F(KeyframeShiftHeadingTest, HybridTakesTheShiftHeadingWhereNothingElseFixes) {
-  expectTheShiftHoldsTheHeadingAndNoPoseWithout(onlyShiftHeading());
+  auto with = RepeatPipeline::create(route(), onlyShiftHeading());
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  const Drive fixed = driveWithBiasedOdometry(*with, "shift");
+  EXPECT_GE(fixed.fixes, 12);
+  EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
+  EXPECT_EQ(fixed.poses, 14);
+  EXPECT_GT(fixed.odometry_error, 0.035);
+  EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
+
+  RepeatPipelineOptions off = onlyShiftHeading();
+  off.shift_heading = false;
+  auto without = RepeatPipeline::create(route(), off);
+  ASSERT_TRUE(without.isOk());
+  const Drive blind = driveWithBiasedOdometry(*without, "shift");
+  EXPECT_EQ(blind.fixes, 0);
+  EXPECT_EQ(blind.poses, 0);
 }
 
 // The μ mode likewise: where its vertical lines give no fix (another season), the seasonal
@@ -153,7 +147,13 @@ TEST_F(KeyframeShiftHeadingTest, HybridTakesTheShiftHeadingWhereNothingElseFixes
 TEST_F(KeyframeShiftHeadingTest, TheMuModeTakesItWhereTheLinesGiveNoFix) {
   RepeatPipelineOptions options = onlyShiftHeading();
   options.localization.mode = RepeatMode::kMu;
-  expectTheShiftHoldsTheHeadingAndNoPoseWithout(options);
+  auto with = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  const Drive fixed = driveWithBiasedOdometry(*with, "shift");
+  EXPECT_GE(fixed.fixes, 12);
+  EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
+  EXPECT_EQ(fixed.poses, 14);
+  EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
 
   // Switched to μ at run time (dynamic_reconfigure) from fast_hd, which has no seasonal fix: the same.
   RepeatPipelineOptions fast_hd = options;
@@ -162,6 +162,13 @@ TEST_F(KeyframeShiftHeadingTest, TheMuModeTakesItWhereTheLinesGiveNoFix) {
   ASSERT_TRUE(switched.isOk());
   ASSERT_TRUE(switched->reconfigure(options.localization).isOk());
   EXPECT_GE(driveWithBiasedOdometry(*switched, "shift").fixes, 12);
+
+  options.shift_heading = false;
+  auto without = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(without.isOk());
+  const Drive blind = driveWithBiasedOdometry(*without, "shift");
+  EXPECT_EQ(blind.fixes, 0);
+  EXPECT_EQ(blind.poses, 0);
 }
 
 // At most one attempt per shift_heading_period: the frames in between carry the pose on odometry
