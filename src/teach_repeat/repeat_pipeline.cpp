@@ -123,6 +123,10 @@ Status RepeatPipeline::reconfigure(const RepeatOptions& options) {
   if (line_localizer_) line_localizer_->setTrackedKeyframe(tracked);
   hybrid_notes_ = std::move(localizers->notes);
   options_.localization = options;
+  // (fast_hd → hybrid: the seasonal fix's keyframe cache is made on the first switch to hybrid)
+  if (options_.shift_heading && mode() == RepeatMode::kHybrid && !shift_heading_) {
+    shift_heading_.emplace(localizer_.route(), localizer_.camera(), options_.shift_heading_options);
+  }
   return Status::ok();
 }
 

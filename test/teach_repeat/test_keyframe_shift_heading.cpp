@@ -142,6 +142,17 @@ TEST_F(KeyframeShiftHeadingTest, HybridTakesTheShiftHeadingWhereNothingElseFixes
   EXPECT_EQ(blind.poses, 0);
 }
 
+// Switched to hybrid at run time (dynamic_reconfigure) from fast_hd, which has no seasonal fix:
+// the fix is there as if the node had started in hybrid.
+TEST_F(KeyframeShiftHeadingTest, ASwitchToHybridBringsTheFix) {
+  RepeatPipelineOptions fast_hd = onlyShiftHeading();
+  fast_hd.localization.mode = RepeatMode::kFastHd;
+  auto pipeline = RepeatPipeline::create(route(), fast_hd);
+  ASSERT_TRUE(pipeline.isOk());
+  ASSERT_TRUE(pipeline->reconfigure(onlyShiftHeading().localization).isOk());
+  EXPECT_GE(driveWithBiasedOdometry(*pipeline, "shift").fixes, 12);
+}
+
 // At most one attempt per shift_heading_period: the frames in between carry the pose on odometry
 // and say why there was no fix.
 TEST_F(KeyframeShiftHeadingTest, OneAttemptPerPeriod) {
