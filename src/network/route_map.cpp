@@ -426,16 +426,14 @@ std::vector<std::string> listRouteMapOrphans(const RouteMap& map) {
 }
 
 Expected<Pose2D> junctionRouteTransform(const RouteMap& map, const Junction& junction) {
-  const int from = map.keyframePosition(junction.from);
-  const int to = map.keyframePosition(junction.to);
-  if (from < 0 || to < 0) {
+  const auto from_pose = map.keyframePose(junction.from);
+  const auto to_pose = map.keyframePose(junction.to);
+  if (!from_pose || !to_pose) {
     return Status(StatusCode::kInvalidInput, "junction " + toString(junction.from) + " -> " + toString(junction.to) +
-                                                 ": " + toString(from < 0 ? junction.from : junction.to) +
+                                                 ": " + toString(!from_pose ? junction.from : junction.to) +
                                                  " is not in the map");
   }
-  const Pose2D& from_pose = map.find(junction.from.route)->route.keyframes[static_cast<std::size_t>(from)].pose;
-  const Pose2D& to_pose = map.find(junction.to.route)->route.keyframes[static_cast<std::size_t>(to)].pose;
-  return from_pose.compose(junction.to_in_from).compose(to_pose.inverse());
+  return from_pose->compose(junction.to_in_from).compose(to_pose->inverse());
 }
 
 std::map<std::string, Pose2D> routeFramesInMap(const RouteMap& map, const std::string& root) {

@@ -99,9 +99,7 @@ RepeatPipeline::RepeatPipeline(Localizers localizers, const RepeatPipelineOption
       integrity_(options.integrity),
       filter_(options.mu_filter) {
   if (options_.odometry_gate) odometry_gate_.emplace(*options_.odometry_gate);
-  if (options_.shift_heading && mode() == RepeatMode::kHybrid) {
-    shift_heading_.emplace(localizer_.route(), localizer_.camera(), options_.shift_heading_options);
-  }
+  makeShiftHeadingIfUsed();
   if (options_.start_keyframe >= 0) {
     localizer_.setTrackedKeyframe(options_.start_keyframe);
     if (line_localizer_) line_localizer_->setTrackedKeyframe(options_.start_keyframe);
@@ -123,11 +121,14 @@ Status RepeatPipeline::reconfigure(const RepeatOptions& options) {
   if (line_localizer_) line_localizer_->setTrackedKeyframe(tracked);
   hybrid_notes_ = std::move(localizers->notes);
   options_.localization = options;
-  // (fast_hd → hybrid: the seasonal fix's keyframe cache is made on the first switch to hybrid)
+  makeShiftHeadingIfUsed();  // (fast_hd → hybrid: made on the first switch)
+  return Status::ok();
+}
+
+void RepeatPipeline::makeShiftHeadingIfUsed() {
   if (options_.shift_heading && mode() == RepeatMode::kHybrid && !shift_heading_) {
     shift_heading_.emplace(localizer_.route(), localizer_.camera(), options_.shift_heading_options);
   }
-  return Status::ok();
 }
 
 RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::Mat>& image,

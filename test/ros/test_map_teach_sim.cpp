@@ -51,9 +51,7 @@ TEST(MapTeachSim, ABranchThatLeavesAndRejoinsTheRouteGetsBothJunctions) {
     const int branch_keyframe = from_trunk ? j.to.keyframe : j.from.keyframe;
     leaves = leaves || branch_keyframe < branch_keyframes / 3;
     rejoins = rejoins || branch_keyframe >= 2 * branch_keyframes / 3;
-    const auto poseOf = [&](const KeyframeRef& ref) {
-      return map->find(ref.route)->route.keyframes[static_cast<std::size_t>(map->keyframePosition(ref))].pose;
-    };
+    const auto poseOf = [&](const KeyframeRef& ref) { return *map->keyframePose(ref); };
     const Pose2D truth = poseOf(j.from).inverse().compose(poseOf(j.to));
     const double position_error = std::hypot(j.to_in_from.x - truth.x, j.to_in_from.y - truth.y);
     const double heading_error = std::abs(wrapToPi(j.to_in_from.yaw - truth.yaw));

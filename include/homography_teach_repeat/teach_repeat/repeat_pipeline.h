@@ -168,6 +168,8 @@ class RepeatPipeline {
   bool primaryIsMu() const { return localizer_.options().mode == RepeatMode::kMu; }
   // hybrid: the whole frame (vision done, the filter corrected and read).
   RepeatFrameResult processHybridFrame(double stamp, const cv::Mat& image);
+  // The seasonal fix's KeyframeShiftHeading, once the mode is hybrid with shift_heading.
+  void makeShiftHeadingIfUsed();
   // The Fast-HD pose of a hybrid frame into the filter; the reason when none was taken.
   Status fuseHybridPose(double stamp, const Expected<Pose2D>& odom_near_image, const Expected<RepeatEstimate>& estimate,
                         RepeatFrameResult* result);
