@@ -1,5 +1,5 @@
 // The seasonal heading fix of the repeat: KeyframeShiftHeading against a route's stored keyframe
-// images, and RepeatPipeline (hybrid) taking it where a frame has no Fast-HD pose and no μ fix.
+// images, and RepeatPipeline (hybrid and μ) taking it where a frame has no Fast-HD pose and no μ fix.
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -151,6 +151,35 @@ TEST_F(KeyframeShiftHeadingTest, ASwitchToHybridBringsTheFix) {
   ASSERT_TRUE(pipeline.isOk());
   ASSERT_TRUE(pipeline->reconfigure(onlyShiftHeading().localization).isOk());
   EXPECT_GE(driveWithBiasedOdometry(*pipeline, "shift").fixes, 12);
+}
+
+// The μ mode likewise: where its vertical lines give no fix (another season), the seasonal
+// heading fix holds the heading the odometry loses; without it the μ mode has no pose at all.
+TEST_F(KeyframeShiftHeadingTest, TheMuModeTakesItWhereTheLinesGiveNoFix) {
+  RepeatPipelineOptions options = onlyShiftHeading();
+  options.localization.mode = RepeatMode::kMu;
+  auto with = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(with.isOk()) << with.status().toString();
+  const Drive fixed = driveWithBiasedOdometry(*with, "shift");
+  EXPECT_GE(fixed.fixes, 12);
+  EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
+  EXPECT_EQ(fixed.poses, 14);
+  EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
+
+  // Switched to μ at run time (dynamic_reconfigure) from fast_hd, which has no seasonal fix: the same.
+  RepeatPipelineOptions fast_hd = options;
+  fast_hd.localization.mode = RepeatMode::kFastHd;
+  auto switched = RepeatPipeline::create(route(), fast_hd);
+  ASSERT_TRUE(switched.isOk());
+  ASSERT_TRUE(switched->reconfigure(options.localization).isOk());
+  EXPECT_GE(driveWithBiasedOdometry(*switched, "shift").fixes, 12);
+
+  options.shift_heading = false;
+  auto without = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(without.isOk());
+  const Drive blind = driveWithBiasedOdometry(*without, "shift");
+  EXPECT_EQ(blind.fixes, 0);
+  EXPECT_EQ(blind.poses, 0);
 }
 
 // At most one attempt per shift_heading_period: the frames in between carry the pose on odometry
