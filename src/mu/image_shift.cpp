@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +21,21 @@ void ImageShiftOptions::validate() const {
   if (!(max_scale_change >= 0.0 && max_scale_change < 1.0)) {
     throw std::invalid_argument("image shift max_scale_change must be in [0, 1)");
   }
+  if (!(max_chance_probability > 0.0 && max_chance_probability <= 1.0)) {
+    throw std::invalid_argument("image shift max_chance_probability must be in (0, 1]");
+  }
+}
+
+double poissonUpperTail(int k, double mean) {
+  if (!(mean >= 0.0) || static_cast<double>(k) <= mean) return 1.0;
+  // e^-mean Σ_{i >= k} mean^i / i!, from the first term on (the terms fall for i > mean).
+  double term = std::exp(-mean + k * std::log(std::max(mean, 1e-300)) - std::lgamma(k + 1.0));
+  double sum = 0.0;
+  for (int i = k; term > 1e-18 * sum && i < k + 10000; ++i) {
+    sum += term;
+    term *= mean / (i + 1.0);
+  }
+  return std::min(1.0, sum);
 }
 
 namespace {
@@ -131,6 +147,18 @@ Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_w
   }
   shift.spread_px = kept > 1 ? std::sqrt(squares / (kept - 1)) : 0.0;
   shift.sigma_px = shift.spread_px / std::sqrt(static_cast<double>(kept));
+  // Chance: the vote's range is the image's width (in angles, f·atan at both edges).
+  const double range = angular(image_width - centre) - angular(-centre);
+  shift.chance_support = shift.matches * window / range;
+  shift.chance_probability = poissonUpperTail(kept, shift.chance_support);
+  if (shift.chance_probability > options.max_chance_probability) {
+    char message[200];
+    std::snprintf(message, sizeof(message),
+                  "%d of %d matches agree on a shift, as many as chance puts in a window with probability %.1e "
+                  "(max_chance_probability %.0e)",
+                  kept, shift.matches, shift.chance_probability, options.max_chance_probability);
+    return Status(StatusCode::kNoConsensus, message);
+  }
   const Window runner_up = fullestWindow(best_centred, window, shift.shift_px - window, shift.shift_px + window);
   shift.runner_up_support = runner_up.count;
   shift.runner_up_shift_px = runner_up.count > 0 ? best_centred[runner_up.first + runner_up.count / 2] : NAN;

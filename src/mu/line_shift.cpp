@@ -21,6 +21,12 @@ VerticalLineOptions LineShiftOptions::seasonalLineOptions() {
   return lines;
 }
 
+ImageShiftOptions LineShiftOptions::voteWithoutChanceTest() {
+  ImageShiftOptions vote;
+  vote.max_chance_probability = 1.0;
+  return vote;
+}
+
 void LineShiftOptions::validate() const {
   lines.validate();
   if (!(min_length_fraction > 0.0 && min_length_fraction < 1.0)) {

@@ -121,12 +121,12 @@ Status RepeatPipeline::reconfigure(const RepeatOptions& options) {
   if (line_localizer_) line_localizer_->setTrackedKeyframe(tracked);
   hybrid_notes_ = std::move(localizers->notes);
   options_.localization = options;
-  makeShiftHeadingIfUsed();  // (fast_hd → hybrid: made on the first switch)
+  makeShiftHeadingIfUsed();  // (e.g. fast_hd → hybrid or mu: made on the first switch to a filter mode)
   return Status::ok();
 }
 
 void RepeatPipeline::makeShiftHeadingIfUsed() {
-  if (options_.shift_heading && mode() == RepeatMode::kHybrid && !shift_heading_) {
+  if (options_.shift_heading && usesFilter() && !shift_heading_) {
     shift_heading_.emplace(localizer_.route(), localizer_.camera(), options_.shift_heading_options);
   }
 }
@@ -168,9 +168,15 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   auto estimate = localizeWithGate(*image, odom_near_image, predictedFilterPose(stamp), &search_all);
   result.timing = localizer_.lastTiming();
   // A whole-route search that found nothing acceptable must not leave tracking on its best guess.
+  // mu: a frame whose lines give no fix takes the seasonal heading fix instead (hybrid's step 3).
   auto failSearch = [&](const Status& status) {
     if (search_all) localizer_.setTrackedKeyframe(tracked_before);
-    return fail(status);
+    if (mode() != RepeatMode::kMu || !shift_heading_) return fail(status);
+    result.estimate.reset();
+    const Status shifted = correctWithShiftHeading(stamp, *image, &result);
+    if (!shifted.isOk()) return fail(Status(status.code(), status.message() + "; shift: " + shifted.message()));
+    finishFilterFix(stamp, &result);
+    return result;
   };
   if (!estimate) return failSearch(estimate.status());
   if (estimate->has_pose) {
@@ -189,7 +195,7 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
     recordFix(stamp, corrected.isOk(), estimate->inliers);
     if (!corrected.isOk()) {
       if (corrected.code() == StatusCode::kNoConsensus) ++statistics_.gated;
-      return fail(corrected);
+      return failSearch(corrected);
     }
     result.fixes = estimate->line_landmark_fix ? "lines" : "mu";
   }
@@ -297,21 +303,25 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
     assessIntegrity(stamp, &result);
     return result;
   }
+  finishFilterFix(stamp, &result);
+  return result;
+}
+
+void RepeatPipeline::finishFilterFix(double stamp, RepeatFrameResult* result) {
   statistics_.failures_in_a_row = 0;
   statistics_.last_status = Status::ok();
-  statistics_.last_inliers = result.estimate->inliers;
-  statistics_.last_degraded = result.estimate->degraded;
-  statistics_.last_keyframe = result.estimate->keyframe;
-  if (result.estimate->degraded) ++statistics_.degraded;
+  statistics_.last_inliers = result->estimate->inliers;
+  statistics_.last_degraded = result->estimate->degraded;
+  statistics_.last_keyframe = result->estimate->keyframe;
+  if (result->estimate->degraded) ++statistics_.degraded;
   const auto odom = odometry_.poseNear(stamp, kOdometryLag);
   const auto pose = odom ? filter_.routePose(*odom) : Expected<Pose2D>(odom.status());
   if (pose) {
-    setFilterPose(*pose, &result);
+    setFilterPose(*pose, result);
   } else {
-    result.warning = "no pose: " + pose.status().message();
+    result->warning = "no pose: " + pose.status().message();
   }
-  assessIntegrity(stamp, &result);
-  return result;
+  assessIntegrity(stamp, result);
 }
 
 Expected<RepeatEstimate> RepeatPipeline::localizeWithGate(const cv::Mat& image, const Expected<Pose2D>& odom_near_image,

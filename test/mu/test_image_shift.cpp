@@ -42,9 +42,44 @@ TEST(ImageShift, FindsTheShiftAmongThreeTimesAsManyWrongMatches) {
 }
 
 TEST(ImageShift, AHandfulOfAgreeingMatchesSuffices) {
-  const auto shift = estimateImageShift(makeMatches(-75.0, 6, 30, 1.0, 5), 1024);
+  const auto shift = estimateImageShift(makeMatches(-75.0, 8, 8, 1.0, 5), 1024);
   ASSERT_TRUE(shift.isOk()) << shift.status().toString();
   EXPECT_NEAR(shift->shift_px, -75.0, 2.0);
+  EXPECT_LT(shift->chance_probability, 1e-6);
+}
+
+// Views of different places: their matches' x differences spread at random, and the fullest
+// window holds what chance puts there (300 matches: ~10 expected, 15-20 in the fullest of the
+// vote's windows and scales). That is no consensus, however many clear min_support; a handful
+// agreeing among many wrong matches is not either, while 40 among 160 is.
+TEST(ImageShift, WhatChanceExplainsIsNoConsensus) {
+  for (const unsigned seed : {11U, 12U, 13U, 14U, 15U}) {
+    const auto chance = estimateImageShift(makeMatches(0.0, 0, 300, 1.0, seed), 1024);
+    ASSERT_FALSE(chance.isOk()) << seed;
+    EXPECT_EQ(chance.status().code(), StatusCode::kNoConsensus);
+    EXPECT_NE(chance.status().message().find("chance"), std::string::npos) << chance.status().message();
+    ImageShiftOptions no_test;
+    no_test.max_chance_probability = 1.0;
+    const auto taken = estimateImageShift(makeMatches(0.0, 0, 300, 1.0, seed), 1024, no_test);
+    ASSERT_TRUE(taken.isOk());  // the window it found: more than min_support, explained by chance
+    EXPECT_GE(taken->support, no_test.min_support);
+    EXPECT_GT(taken->chance_probability, 1e-6);
+    EXPECT_NEAR(taken->chance_support, 300 * 0.035, 1e-9);
+  }
+  EXPECT_EQ(estimateImageShift(makeMatches(-75.0, 6, 30, 1.0, 5), 1024).status().code(), StatusCode::kNoConsensus);
+  const auto clear = estimateImageShift(makeMatches(-75.0, 40, 160, 1.0, 5), 1024);
+  ASSERT_TRUE(clear.isOk()) << clear.status().toString();
+  EXPECT_LT(clear->chance_probability, 1e-15);
+}
+
+TEST(ImageShift, PoissonUpperTail) {
+  EXPECT_NEAR(poissonUpperTail(14, 7.0), 0.0128114, 1e-6);
+  EXPECT_NEAR(poissonUpperTail(5, 2.0), 1.0 - 7.0 * std::exp(-2.0), 1e-12);
+  EXPECT_NEAR(poissonUpperTail(5, 0.5), 1.72116e-4, 1e-9);
+  EXPECT_EQ(poissonUpperTail(3, 3.0), 1.0);  // at or below the mean: never significant
+  EXPECT_EQ(poissonUpperTail(0, 0.0), 1.0);
+  EXPECT_GT(poissonUpperTail(400, 100.0), 0.0);
+  EXPECT_LT(poissonUpperTail(400, 100.0), 1e-60);
 }
 
 TEST(ImageShift, TwoCompetingShiftsShowInTheRunnerUp) {

@@ -1,5 +1,5 @@
 // The seasonal heading fix of the repeat: KeyframeShiftHeading against a route's stored keyframe
-// images, and RepeatPipeline (hybrid) taking it where a frame has no Fast-HD pose and no μ fix.
+// images, and RepeatPipeline (hybrid and μ) taking it where a frame has no Fast-HD pose and no μ fix.
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -120,37 +120,39 @@ TEST_F(KeyframeShiftHeadingTest, CacheAndBadInput) {
   std::filesystem::remove_all(copy);
 }
 
-// hybrid where neither Fast-HD nor μ gives a fix: the seasonal heading fixes start the filter at
-// the start keyframe and hold the heading that the odometry loses (0.003 rad per 0.1 m); without
-// them there is no pose at all (nothing aligns the filter).
-TEST_F(KeyframeShiftHeadingTest, HybridTakesTheShiftHeadingWhereNothingElseFixes) {
-  auto with = RepeatPipeline::create(route(), onlyShiftHeading());
-  ASSERT_TRUE(with.isOk()) << with.status().toString();
-  const Drive fixed = driveWithBiasedOdometry(*with, "shift");
-  EXPECT_GE(fixed.fixes, 12);
-  EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
-  EXPECT_EQ(fixed.poses, 14);
-  EXPECT_GT(fixed.odometry_error, 0.035);
-  EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
+// The filter modes (hybrid, μ) where neither Fast-HD nor μ gives a fix (another season): the
+// seasonal heading fixes start the filter at the start keyframe and hold the heading that the
+// odometry loses (0.003 rad per 0.1 m); the same after a switch at run time (dynamic_reconfigure)
+// from fast_hd, which has no seasonal fix; without them there is no pose at all (nothing aligns the
+// filter).
+TEST_F(KeyframeShiftHeadingTest, TheFilterModesTakeTheShiftHeadingWhereNothingElseFixes) {
+  for (const RepeatMode mode : {RepeatMode::kHybrid, RepeatMode::kMu}) {
+    SCOPED_TRACE(mode == RepeatMode::kHybrid ? "hybrid" : "mu");
+    RepeatPipelineOptions options = onlyShiftHeading();
+    options.localization.mode = mode;
+    auto with = RepeatPipeline::create(route(), options);
+    ASSERT_TRUE(with.isOk()) << with.status().toString();
+    const Drive fixed = driveWithBiasedOdometry(*with, "shift");
+    EXPECT_GE(fixed.fixes, 12);
+    EXPECT_EQ(with->statistics().shift_heading_fixes, static_cast<unsigned>(fixed.fixes));
+    EXPECT_EQ(fixed.poses, 14);
+    EXPECT_GT(fixed.odometry_error, 0.035);
+    EXPECT_LT(fixed.pose_error, 0.3 * fixed.odometry_error);
 
-  RepeatPipelineOptions off = onlyShiftHeading();
-  off.shift_heading = false;
-  auto without = RepeatPipeline::create(route(), off);
-  ASSERT_TRUE(without.isOk());
-  const Drive blind = driveWithBiasedOdometry(*without, "shift");
-  EXPECT_EQ(blind.fixes, 0);
-  EXPECT_EQ(blind.poses, 0);
-}
+    RepeatPipelineOptions fast_hd = options;
+    fast_hd.localization.mode = RepeatMode::kFastHd;
+    auto switched = RepeatPipeline::create(route(), fast_hd);
+    ASSERT_TRUE(switched.isOk());
+    ASSERT_TRUE(switched->reconfigure(options.localization).isOk());
+    EXPECT_GE(driveWithBiasedOdometry(*switched, "shift").fixes, 12);
 
-// Switched to hybrid at run time (dynamic_reconfigure) from fast_hd, which has no seasonal fix:
-// the fix is there as if the node had started in hybrid.
-TEST_F(KeyframeShiftHeadingTest, ASwitchToHybridBringsTheFix) {
-  RepeatPipelineOptions fast_hd = onlyShiftHeading();
-  fast_hd.localization.mode = RepeatMode::kFastHd;
-  auto pipeline = RepeatPipeline::create(route(), fast_hd);
-  ASSERT_TRUE(pipeline.isOk());
-  ASSERT_TRUE(pipeline->reconfigure(onlyShiftHeading().localization).isOk());
-  EXPECT_GE(driveWithBiasedOdometry(*pipeline, "shift").fixes, 12);
+    options.shift_heading = false;
+    auto without = RepeatPipeline::create(route(), options);
+    ASSERT_TRUE(without.isOk());
+    const Drive blind = driveWithBiasedOdometry(*without, "shift");
+    EXPECT_EQ(blind.fixes, 0);
+    EXPECT_EQ(blind.poses, 0);
+  }
 }
 
 // At most one attempt per shift_heading_period: the frames in between carry the pose on odometry

@@ -29,6 +29,13 @@ struct ImageShiftOptions {
   // centre, which spreads the x differences by (s − 1) x: the vote also searches scales s within
   // 1 ± this (in steps of 2 %) and the shift is taken at the image centre. 0: shifts only.
   double max_scale_change = 0.1;
+  // Matches of two views of different places agree by chance: their x differences spread over
+  // the image, about n·window/width of the n matches in any one window (the most there). A winner
+  // with a support that chance reaches with a probability above this (Poisson) is no consensus.
+  // Two unrelated 640x480 views: 14 of 199 agreeing, p = 1e-2; the GRIEF seasonal pairs' right
+  // fixes down to p = 1.5e-3 (ambiguous ones), all but 4 of 660 below 1e-6
+  // (docs/evaluation.md, "Heading across seasons"). In (0, 1]; 1: no test.
+  double max_chance_probability = 1e-6;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -47,7 +54,14 @@ struct ImageShift {
   int runner_up_support = 0;
   double runner_up_shift_px = NAN;  // the median shift of that window (NaN: no runner-up)
   int matches = 0;         // matches within the vertical limit
+  // The support expected by chance in one window (matches · window / the vote's range) and the
+  // probability that chance reaches `support` there (Poisson upper tail).
+  double chance_support = 0.0;
+  double chance_probability = 1.0;
 };
+
+// P(X >= k) for X Poisson with mean `mean` (>= 0): 1 for k <= mean (never significant).
+double poissonUpperTail(int k, double mean);
 
 // `image_width` [px] scales the window and the vertical limit. The shift is taken at `centre_x`
 // [px] (the principal point's x for a heading; default the image's middle, width / 2). With
@@ -55,7 +69,8 @@ struct ImageShift {
 // shifts every point alike: without it a point x px from the centre moves by x²θ/f more than the
 // centre (2 px of bias at 3° for 640 px and f = 512 px). Status: kInvalidInput (width <= 0, a
 // non-finite centre or pixel, a focal length <= 0), kTooFewPoints (fewer than min_support matches
-// within the vertical limit), kNoConsensus (no window with min_support matches).
+// within the vertical limit), kNoConsensus (no window with min_support matches, or a winner that
+// chance explains: max_chance_probability).
 Expected<ImageShift> estimateImageShift(const PointMatches& matches, int image_width,
                                         const ImageShiftOptions& options = ImageShiftOptions(),
                                         std::optional<double> centre_x = std::nullopt,

@@ -1,6 +1,6 @@
 // The repeat's seasonal heading fix (docs/math.md §4.10, docs/evaluation.md "Heading across
 // seasons"): ShiftHeading (mu/shift_heading.h) of the current image against a route keyframe's
-// stored image. The hybrid mode takes it where a frame has neither a Fast-HD pose nor a μ or
+// stored image. The hybrid and μ modes take it where a frame has neither a Fast-HD pose nor a μ or
 // line fix (RepeatPipeline, docs/nodes/repeat_node.md, "The seasonal heading fix").
 //  - The keyframe's image (keyframes/NNNNNN.png, as recorded) and those of its experiences (views
 //    learned by earlier repeat runs, docs/route_format.md) are read and described on first use; the

@@ -9,6 +9,7 @@
 //  - mu: the localization filter (localization/localization_filter.h: an EKF on the odometry,
 //    docs/math.md §4.4-4.5) corrected by the frame's μ through the keyframe wall's model; the pose
 //    is the filter's. Frames without a fix carry the pose on odometry alone for at most max_unaided_distance metres.
+//    Where the lines give no fix, the seasonal heading fix (as in hybrid, below).
 //  - hybrid (docs/math.md §7): the same filter takes, frame by frame, what the place offers: the
 //    Fast-HD pose with its covariance where the keyframe has a plane and the pose passes its
 //    checks and the odometry gate (§7.1), the μ fix (or line landmark fix) where it has vertical
@@ -70,8 +71,8 @@ struct RepeatPipelineOptions {
   //    passes the odometry gate, and a failed search leaves the tracked keyframe as it was.
   double follow_odometry_distance = 5.0;
   int search_all_after = 10;
-  // hybrid: the seasonal heading fix (teach_repeat/keyframe_shift_heading.h, docs/math.md §4.10)
-  // in a frame without a Fast-HD pose, μ or line fix: the current image against the stored images
+  // mu and hybrid: the seasonal heading fix (teach_repeat/keyframe_shift_heading.h, docs/math.md
+  // §4.10) in a frame without a Fast-HD pose, μ or line fix: the current image against the stored images
   // of the keyframe the filter's prediction is at and of its experiences (the best view's fix;
   // KeyframeShiftHeading::measureViews), when that keyframe faces within
   // localization.mu_max_reference_angle of the predicted heading. Its μ goes through the
@@ -116,7 +117,7 @@ struct RepeatStatistics {
   unsigned frames = 0, failures = 0, degraded = 0, gated = 0;
   unsigned failures_in_a_row = 0;
   unsigned searches_all = 0, found_by_search_all = 0;  // whole-route searches, and those that gave a pose
-  unsigned shift_heading_fixes = 0;  // hybrid: seasonal heading fixes taken
+  unsigned shift_heading_fixes = 0;  // mu and hybrid: seasonal heading fixes taken
   int last_inliers = 0;
   int last_keyframe = -1;
   bool last_degraded = false;
@@ -168,8 +169,10 @@ class RepeatPipeline {
   bool primaryIsMu() const { return localizer_.options().mode == RepeatMode::kMu; }
   // hybrid: the whole frame (vision done, the filter corrected and read).
   RepeatFrameResult processHybridFrame(double stamp, const cv::Mat& image);
-  // The seasonal fix's KeyframeShiftHeading, once the mode is hybrid with shift_heading.
+  // The seasonal fix's KeyframeShiftHeading, once the mode uses the filter (mu, hybrid) with shift_heading.
   void makeShiftHeadingIfUsed();
+  // A frame with a filter fix in result->estimate: the statistics, the filter's pose, integrity.
+  void finishFilterFix(double stamp, RepeatFrameResult* result);
   // The Fast-HD pose of a hybrid frame into the filter; the reason when none was taken.
   Status fuseHybridPose(double stamp, const Expected<Pose2D>& odom_near_image, const Expected<RepeatEstimate>& estimate,
                         RepeatFrameResult* result);
@@ -213,7 +216,7 @@ class RepeatPipeline {
   // fast_hd/classic: the last accepted pose's map -> odom, and the odometry then.
   std::optional<Pose2D> last_alignment_;
   std::optional<Pose2D> last_fix_odometry_;
-  std::optional<KeyframeShiftHeading> shift_heading_;  // hybrid with shift_heading
+  std::optional<KeyframeShiftHeading> shift_heading_;  // mu or hybrid, with shift_heading
   std::optional<double> last_shift_heading_stamp_;    // the last attempt's
   std::optional<double> last_failed_search_stamp_;    // hybrid: the last Fast-HD search without a pose
   RepeatStatistics statistics_;

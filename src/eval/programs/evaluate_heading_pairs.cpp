@@ -112,6 +112,7 @@ struct Outcome {
   double time_ms = 0.0;
   int line_matches = -1;
   int support = -1, runner_up_support = -1;  // the vote's
+  int vote_matches = -1;                        // the matches the vote counted (within the vertical limit)
   bool ambiguous = false;
 };
 
@@ -218,6 +219,7 @@ Outcome measure(const Method& method, const Extractors& extractors, const Extrac
     outcome.estimate_px = fix->mu;
     outcome.support = fix->shift.support;
     outcome.runner_up_support = fix->shift.runner_up_support;
+    outcome.vote_matches = fix->shift.matches;
     outcome.ambiguous = fix->ambiguous;
     if (method.estimator == Estimator::kLineVote) outcome.line_matches = fix->matches;  // line points
   } else {
@@ -336,6 +338,7 @@ int main(int argc, char** argv) {
       if (outcome.support >= 0) {
         result["support"] = outcome.support;
         result["runner_up_support"] = outcome.runner_up_support;
+        result["vote_matches"] = outcome.vote_matches;
         result["ambiguous"] = outcome.ambiguous;
         (failed ? ambiguous_wrong : ambiguous_right) += outcome.ambiguous ? 1 : 0;
         wrong_unflagged += failed && !outcome.ambiguous ? 1 : 0;
