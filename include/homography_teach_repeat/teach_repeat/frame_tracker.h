@@ -35,6 +35,7 @@ class FrameTracker {
   Expected<PointMatches> track(const cv::Mat& gray) const;
   int keyframe() const { return memory_ ? memory_->keyframe : -1; }
   int framesTracked() const { return memory_ ? memory_->frames_tracked : 0; }
+  int rememberedMatches() const { return memory_ ? static_cast<int>(memory_->reference.size()) : 0; }
 
   // Keeps `inliers` (against `keyframe`, measured in `gray`) for the next frames.
   void remember(const PointMatches& inliers, int keyframe, const cv::Mat& gray, int frames_tracked);
