@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <utility>
 
+#include "homography_teach_repeat/common/text.h"
 #include "homography_teach_repeat/network/junction_measurement.h"
 #include "homography_teach_repeat/network/map_place_index.h"
 
@@ -84,8 +85,22 @@ void MapTeach::closeStretch() {
   stretch_last_.reset();
 }
 
+std::optional<MapContact> MapTeach::tentativeEndContact() const {
+  if (!last_location_ || last_location_->state != RelocalizationState::kTentative || last_location_->hypotheses.empty() ||
+      session_.route().keyframes.empty()) {
+    return std::nullopt;
+  }
+  const int last = session_.route().keyframes.back().index;
+  if (!contacts_.empty() && contacts_.back().keyframe == last) return std::nullopt;
+  const PlaceHypothesis& place = last_location_->hypotheses.front();
+  if (!nearItsKeyframe(place)) return std::nullopt;
+  return MapContact{last, place.keyframe};
+}
+
 Expected<MapTeachReport> MapTeach::finish() {
   closeStretch();
+  const std::optional<MapContact> tentative_end = tentativeEndContact();
+  if (tentative_end) contacts_.push_back(*tentative_end);
   MapTeachReport report;
   report.relative_directory = relative_directory_;
   auto planes = session_.finish();
@@ -110,7 +125,16 @@ Expected<MapTeachReport> MapTeach::finish() {
     if (c.map_keyframe.route == options_.name) continue;
     const KeyframeRef here{options_.name, c.keyframe};
     auto junction = measureJunction(with_route, c.map_keyframe, here, options_.repeat);
-    if (junction) {
+    const bool unconfirmed = tentative_end && c.keyframe == tentative_end->keyframe;
+    if (junction && unconfirmed &&
+        (std::hypot(junction->to_in_from.x, junction->to_in_from.y) > options_.contact_distance ||
+         std::abs(wrapToPi(junction->to_in_from.yaw)) > options_.contact_angle)) {
+      report.problems.push_back(toString(c.map_keyframe) + " -> " + toString(here) +
+                                ": the route's last keyframe, its place tentative, measured " +
+                                formatFixed(std::hypot(junction->to_in_from.x, junction->to_in_from.y), 2) + " m and " +
+                                formatFixed(std::abs(wrapToPi(junction->to_in_from.yaw)), 2) +
+                                " rad from it: no junction");
+    } else if (junction) {
       junctions.push_back(*junction);
     } else {
       report.problems.push_back(toString(c.map_keyframe) + " -> " + toString(here) + ": " + junction.status().message());

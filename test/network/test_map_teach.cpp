@@ -93,6 +93,44 @@ TEST_F(MapWithTrunk, ABranchOverTaughtGroundGetsJunctionsFromTheImages) {
   }
 }
 
+// A branch that reaches taught ground just before it ends (two keyframes there: its place is still
+// tentative, confirmed after three): the junction is measured at its last keyframe at finish, within
+// 0.05 m and 1° of the truth, as the network demo's south branch needs where it rejoins the trunk.
+TEST_F(MapWithTrunk, ABranchThatEndsOnTaughtGroundGetsItsJunctionAtTheEnd) {
+  const auto map = loadRouteMap(directory);
+  auto index = loadMapPlaceIndex(*map);
+  ASSERT_TRUE(index.isOk()) << index.status().toString();
+  auto teach = MapTeach::start(*map, std::move(*index), branchOptions("short"), syntheticCalibration(), Pose2D());
+  ASSERT_TRUE(teach.isOk()) << teach.status().toString();
+  const Pose2D odometry_origin(1.0, -3.0, -0.4);
+  std::vector<Pose2D> truth_of_keyframe;
+  for (int step = 0; step < 4; ++step) {
+    const PlanarPose camera = cameraAt(0.4 + 0.1 * step, 0.03);
+    const Pose2D truth = cameraAxesToRep103(camera);
+    const auto stored = teach->offer(SyntheticWall().imageAt(camera), odometry_origin.compose(truth), 5.0 + step);
+    ASSERT_TRUE(stored.isOk()) << stored.status().toString();
+    if (*stored) truth_of_keyframe.push_back(truth);
+  }
+  ASSERT_EQ(truth_of_keyframe.size(), 2u);
+  ASSERT_TRUE(teach->lastLocation().has_value());
+  EXPECT_EQ(teach->lastLocation()->state, RelocalizationState::kTentative) << teach->lastLocation()->reason;
+  EXPECT_TRUE(teach->contacts().empty());
+  const auto report = teach->finish();
+  ASSERT_TRUE(report.isOk()) << report.status().toString();
+  EXPECT_TRUE(report->problems.empty()) << report->problems.front();
+  ASSERT_EQ(report->junctions.size(), 1u);
+  const Junction& j = report->junctions.front();
+  EXPECT_EQ(j.to.keyframe, 1);  // the last
+  const auto after = loadRouteMap(directory);
+  ASSERT_TRUE(after.isOk());
+  const auto trunk_pose = after->keyframePose(j.from);
+  ASSERT_TRUE(trunk_pose.has_value());
+  const Pose2D truth = trunk_pose->inverse().compose(truth_of_keyframe.back());
+  EXPECT_NEAR(j.to_in_from.x, truth.x, 0.05);
+  EXPECT_NEAR(j.to_in_from.y, truth.y, 0.05);
+  EXPECT_NEAR(wrapToPi(j.to_in_from.yaw - truth.yaw), 0.0, M_PI / 180.0);
+}
+
 // The same wall seen from 0.7 m to the side of the trunk: the robot is located (confirmed), but it
 // is not on taught ground (contact_distance 0.5 m): no contact, no junction.
 TEST_F(MapWithTrunk, AWallSeenFromBesideIsNoContact) {

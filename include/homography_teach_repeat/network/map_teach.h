@@ -4,7 +4,10 @@
 // keyframes and some motion), so that the stretches where the new route runs over taught ground are
 // known while teaching — where it leaves a taught route and where it rejoins one. At finish the
 // planes are estimated, a junction is measured from the images (junction_measurement.h) at the
-// first and the last keyframe of each such stretch, and the route and its junctions are committed
+// first and the last keyframe of each such stretch (and at the route's last keyframe where its place
+// is tentative: a branch that rejoins a taught route just before it ends, before 3 keyframes could
+// confirm the place; kept only when the junction measured there puts the two keyframes within
+// contact_distance and contact_angle), and the route and its junctions are committed
 // to the map (the route by one atomic rewrite of the index, then each junction by another: a crash
 // in between leaves the map with the route and without some of its junctions, which loads); the
 // place index is rebuilt so that the new route can be relocalized on at once. Teaching a route of
@@ -81,6 +84,9 @@ class MapTeach {
   MapTeach(RouteMap map, TeachSession session, std::optional<MapRelocalizer> relocalizer, MapTeachOptions options,
            std::string relative_directory);
   void closeStretch();
+  // The last keyframe's contact where its place is tentative (one place, not yet confirmed) and
+  // near its keyframe, and no stretch over taught ground ends there already.
+  std::optional<MapContact> tentativeEndContact() const;
   // The located place is within contact_distance / contact_angle of its keyframe.
   bool nearItsKeyframe(const PlaceHypothesis& place) const;
 
