@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/trifocal/trifocal_localizer.h"
@@ -22,23 +24,34 @@ PinholeCamera camera() {
   return PinholeCamera(c);
 }
 
+// The room and one renderer for every test: the renderer prefilters each texture once (its ripmap
+// cache), which under the sanitizers took ~10 s per renderer.
 class TrifocalLocalizerTest : public ::testing::Test {
  protected:
+  static void SetUpTestSuite() {
+    auto world = loadPlanarWorld(std::string(HTR_TEST_DATA_DIR) + "/worlds/small_room.yaml");
+    if (world) world_ = std::make_unique<PlanarWorld>(std::move(*world));
+    load_status_ = world.status().toString();
+  }
+  static void TearDownTestSuite() {
+    renderer_.reset();
+    world_.reset();
+  }
   void SetUp() override {
-    const auto world = loadPlanarWorld(std::string(HTR_TEST_DATA_DIR) + "/worlds/small_room.yaml");
-    if (!world) GTEST_SKIP() << "world textures unavailable (opencv-doc): " << world.status().toString();
-    world_ = *world;
+    if (!world_) GTEST_SKIP() << "world textures unavailable (opencv-doc): " << load_status_;
   }
   // A view of the robot at `truth` (camera at base_link), with odometry `odometry`.
   TrifocalView view(TrifocalLocalizer& localizer, const Pose2D& truth, const Pose2D& odometry) {
-    const WorldRenderer renderer(camera(), RenderOptions{});
+    if (!renderer_) renderer_ = std::make_unique<WorldRenderer>(camera(), RenderOptions{});
     cv::RNG rng(1);
-    const cv::Mat image = renderer.render(world_, truth, 1.0, rng);
+    const cv::Mat image = renderer_->render(*world_, truth, 1.0, rng);
     auto features = localizer.extract(image);
     EXPECT_TRUE(features.isOk()) << features.status().toString();
     return TrifocalView{*features, odometry};
   }
-  PlanarWorld world_;
+  inline static std::unique_ptr<PlanarWorld> world_;
+  inline static std::unique_ptr<WorldRenderer> renderer_;
+  inline static std::string load_status_;
 };
 
 }  // namespace
