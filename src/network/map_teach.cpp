@@ -76,8 +76,12 @@ Expected<bool> MapTeach::offer(const cv::Mat& image, const Pose2D& odometry_pose
 
 bool MapTeach::nearItsKeyframe(const PlaceHypothesis& place) const {
   const auto keyframe = map_.keyframePose(place.keyframe);
-  return keyframe && std::hypot(place.base_pose.x - keyframe->x, place.base_pose.y - keyframe->y) <= options_.contact_distance &&
-         std::abs(wrapToPi(place.base_pose.yaw - keyframe->yaw)) <= options_.contact_angle;
+  return keyframe && withinContact(keyframe->inverse().compose(place.base_pose));
+}
+
+bool MapTeach::withinContact(const Pose2D& relative) const {
+  return std::hypot(relative.x, relative.y) <= options_.contact_distance &&
+         std::abs(wrapToPi(relative.yaw)) <= options_.contact_angle;
 }
 
 void MapTeach::closeStretch() {
@@ -126,14 +130,12 @@ Expected<MapTeachReport> MapTeach::finish() {
     const KeyframeRef here{options_.name, c.keyframe};
     auto junction = measureJunction(with_route, c.map_keyframe, here, options_.repeat);
     const bool unconfirmed = tentative_end && c.keyframe == tentative_end->keyframe;
-    if (junction && unconfirmed &&
-        (std::hypot(junction->to_in_from.x, junction->to_in_from.y) > options_.contact_distance ||
-         std::abs(wrapToPi(junction->to_in_from.yaw)) > options_.contact_angle)) {
+    if (junction && unconfirmed && !withinContact(junction->to_in_from)) {
+      const Pose2D& apart = junction->to_in_from;
       report.problems.push_back(toString(c.map_keyframe) + " -> " + toString(here) +
                                 ": the route's last keyframe, its place tentative, measured " +
-                                formatFixed(std::hypot(junction->to_in_from.x, junction->to_in_from.y), 2) + " m and " +
-                                formatFixed(std::abs(wrapToPi(junction->to_in_from.yaw)), 2) +
-                                " rad from it: no junction");
+                                formatFixed(std::hypot(apart.x, apart.y), 2) + " m and " +
+                                formatFixed(std::abs(wrapToPi(apart.yaw)), 2) + " rad from it: no junction");
     } else if (junction) {
       junctions.push_back(*junction);
     } else {

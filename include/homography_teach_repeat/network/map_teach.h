@@ -89,6 +89,8 @@ class MapTeach {
   std::optional<MapContact> tentativeEndContact() const;
   // The located place is within contact_distance / contact_angle of its keyframe.
   bool nearItsKeyframe(const PlaceHypothesis& place) const;
+  // A pose relative to a map keyframe is within contact_distance and contact_angle of it.
+  bool withinContact(const Pose2D& relative) const;
 
   RouteMap map_;
   TeachSession session_;
