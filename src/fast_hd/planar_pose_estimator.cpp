@@ -31,6 +31,9 @@ void PlanarPoseEstimatorOptions::validate() const {
   if (!std::isfinite(heading_sigma_rad) || heading_sigma_rad < 0.0 || heading_sigma_rad > 0.05) {
     throw std::invalid_argument("heading_sigma must be in [0, 0.05] rad, got " + std::to_string(heading_sigma_rad));
   }
+  if (!std::isfinite(common_shift_sigma_px) || common_shift_sigma_px < 0.0 || common_shift_sigma_px > 5.0) {
+    throw std::invalid_argument("common_shift_sigma must be in [0, 5] px, got " + std::to_string(common_shift_sigma_px));
+  }
   if (refinement_max_iterations < 1) {
     throw std::invalid_argument("refinement_max_iterations must be >= 1");
   }
@@ -45,9 +48,12 @@ Eigen::Vector3d planeVariances(double normal_sigma_rad, double distance_sigma) {
 
 // The model's part of a pose covariance (PlanarPoseEstimate::model_covariance): the plane's term
 // and the heading's own error floor (docs/math.md §3.8: a common rotation of the current camera
-// about its vertical axis moves θ12 and leaves the centre where it is).
-Eigen::Matrix3d withHeadingFloor(Eigen::Matrix3d plane_term, const PlanarPoseEstimatorOptions& options) {
-  plane_term(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad;
+// about its vertical axis moves θ12 and leaves the centre where it is); a common image shift of σ
+// px is such a rotation by σ / fx.
+Eigen::Matrix3d withHeadingFloor(Eigen::Matrix3d plane_term, const PlanarPoseEstimatorOptions& options,
+                                 const PinholeCamera& camera) {
+  const double shift_rad = options.common_shift_sigma_px / camera.fx();
+  plane_term(2, 2) += options.heading_sigma_rad * options.heading_sigma_rad + shift_rad * shift_rad;
   return plane_term;
 }
 }  // namespace
@@ -103,7 +109,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
                                                            options.plane_distance_sigma);
   if (!plane_covariance) return plane_covariance.status();
 
-  const Eigen::Matrix3d model_covariance = withHeadingFloor(*plane_covariance, options);
+  const Eigen::Matrix3d model_covariance = withHeadingFloor(*plane_covariance, options, camera);
 
   PlanarPoseEstimate estimate;
   estimate.fast_hd_pose = solution->pose;
@@ -135,7 +141,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
     const Eigen::Matrix3d& J = refined->plane_jacobian;
     estimate.model_covariance = withHeadingFloor(
         J * planeVariances(options.plane_normal_sigma_rad, options.plane_distance_sigma).asDiagonal() * J.transpose(),
-        options);
+        options, camera);
     estimate.covariance = refined->covariance + estimate.model_covariance;
     estimate.reference_noise_covariance = refined->reference_noise_covariance;
     estimate.tilt = refined->tilt;

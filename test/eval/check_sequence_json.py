@@ -2,7 +2,8 @@
 """ctest helper: checks evaluate_sequence's JSON against floors (and that its plots were drawn).
 
   check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M]
-                         [--max-median-heading DEG] [--max-segment-nees-mean N] [--plots]
+                         [--max-median-heading DEG] [--min-segment-nees-mean N] [--max-segment-nees-mean N]
+                         [--max-beyond-95 F] [--plots]
 Exit 1 naming the figure that misses its floor."""
 import argparse
 import json
@@ -19,6 +20,10 @@ def main():
     # The covariance's honesty per segment (a turn whose fixes are wrong while claiming mm shows
     # here long before it moves the median).
     parser.add_argument("--max-segment-nees-mean", type=float, default=float("inf"))
+    # ... and from the other side: a covariance that claims far more than the errors are.
+    parser.add_argument("--min-segment-nees-mean", type=float, default=0.0)
+    # The share of poses beyond their 95 % bound over the run.
+    parser.add_argument("--max-beyond-95", type=float, default=1.0)
     parser.add_argument("--plots", action="store_true")
     args = parser.parse_args()
     with open(args.json) as f:
@@ -33,10 +38,16 @@ def main():
     heading = summary["heading_error_median_deg"]
     if args.max_median_heading != float("inf") and (heading is None or heading > args.max_median_heading):
         problems.append("median heading error %s deg > %.3f deg" % (heading, args.max_median_heading))
-    for segment in doc.get("segments", []) if args.max_segment_nees_mean != float("inf") else []:
+    checks_nees = args.max_segment_nees_mean != float("inf") or args.min_segment_nees_mean > 0.0
+    for segment in doc.get("segments", []) if checks_nees else []:
         nees = segment.get("nees_mean")
         if nees is None or nees > args.max_segment_nees_mean:
             problems.append("segment '%s': NEES mean %s > %.1f" % (segment.get("name"), nees, args.max_segment_nees_mean))
+        elif nees < args.min_segment_nees_mean:
+            problems.append("segment '%s': NEES mean %s < %.1f" % (segment.get("name"), nees, args.min_segment_nees_mean))
+    beyond = summary.get("nees_fraction_beyond_95")
+    if args.max_beyond_95 < 1.0 and (beyond is None or beyond > args.max_beyond_95):
+        problems.append("%s of the poses beyond their 95 %% bound > %.2f" % (beyond, args.max_beyond_95))
     if len(doc["frames"]) != summary["frames"] or not doc["keyframes"]:
         problems.append("frames or keyframes missing from the JSON")
     if args.plots:

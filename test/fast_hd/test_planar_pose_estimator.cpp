@@ -114,6 +114,7 @@ TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(*normal).eigenvalues().minCoeff(), -1e-12);
 
   PlanarPoseEstimatorOptions options;
+  options.common_shift_sigma_px = 0.0;  // the pixel noise alone
   const auto pixels_only = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
   options.plane_normal_sigma_rad = 0.02;
   options.plane_distance_sigma = 0.03;
@@ -151,6 +152,7 @@ TEST(PlanarPoseEstimator, PlaneUncertaintyAddsToTheCovariance) {
 // covariances and nothing else; the pose does not change; values outside [0, 0.05] rad throw.
 TEST(PlanarPoseEstimator, HeadingSigmaAddsToTheHeadingVarianceOnly) {
   PlanarPoseEstimatorOptions options;
+  options.common_shift_sigma_px = 0.0;
   const auto pixels_only = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
   options.heading_sigma_rad = 0.0007;
   EXPECT_NO_THROW(options.validate());
@@ -165,6 +167,31 @@ TEST(PlanarPoseEstimator, HeadingSigmaAddsToTheHeadingVarianceOnly) {
   EXPECT_LT((with_floor->fast_hd_covariance - pixels_only->fast_hd_covariance - added).cwiseAbs().maxCoeff(), 1e-15);
   for (const double bad : {-0.001, 0.06, std::nan(""), std::numeric_limits<double>::infinity()}) {
     options.heading_sigma_rad = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument) << bad;
+  }
+}
+
+// The floor in pixels (docs/math.md §3.8): a common shift of σ px is a heading of σ / fx, its
+// variance added to the heading's alone and to heading_sigma_rad's; the default is 0.5 px; outside
+// [0, 5] px throws.
+TEST(PlanarPoseEstimator, ACommonShiftInPixelsIsAHeadingFloorOfShiftOverFocalLength) {
+  PlanarPoseEstimatorOptions options;
+  EXPECT_EQ(options.common_shift_sigma_px, 0.5);
+  options.common_shift_sigma_px = 0.0;
+  const auto pixels_only = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  options.common_shift_sigma_px = 0.5;
+  options.heading_sigma_rad = 0.0003;
+  const auto with_floor = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  ASSERT_TRUE(pixels_only.isOk()) << pixels_only.status().toString();
+  ASSERT_TRUE(with_floor.isOk()) << with_floor.status().toString();
+  expectPoseNear(with_floor->pose, pixels_only->pose, 1e-12);
+  const double shift_rad = 0.5 / mathCamera().fx();
+  Eigen::Matrix3d added = Eigen::Matrix3d::Zero();
+  added(2, 2) = shift_rad * shift_rad + 0.0003 * 0.0003;
+  EXPECT_LT((with_floor->covariance - pixels_only->covariance - added).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((with_floor->model_covariance - added).cwiseAbs().maxCoeff(), 1e-15);
+  for (const double bad : {-0.1, 5.5, std::nan("")}) {
+    options.common_shift_sigma_px = bad;
     EXPECT_THROW(options.validate(), std::invalid_argument) << bad;
   }
 }

@@ -431,6 +431,8 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const PlanarPose camera_pose(0.085, 0.31, 0.047);
   RepeatOptions plain;
   plain.neighbour_search = 0;
+  plain.plane_sigma_from_neighbours = false;
+  plain.pose.common_shift_sigma_px = 0.0;  // the pixel noise alone: no model covariance
   RepeatOptions measured = plain;
   measured.plane_sigma_from_neighbours = true;
   auto reference = RepeatLocalizer::create(route(), plain);

@@ -171,6 +171,8 @@ TEST_F(RouteAuditTest, ThePlanesDisagreementEntersThePredictionOnlyWhereTheRepea
   disagreeing.keyframes[2].plane->distance *= 1.3;
   RouteAuditOptions options;
   options.aliasing = false;
+  options.repeat.plane_sigma_from_neighbours = false;
+  options.repeat.pose.common_shift_sigma_px = 0.0;  // the pixel noise alone
   const auto without = auditRoute(disagreeing, options);
   options.repeat.plane_sigma_from_neighbours = true;
   const auto with = auditRoute(disagreeing, options);
@@ -279,6 +281,8 @@ TEST_F(RouteAuditTest, TheFixToFixPartIsTheCurrentImagesNoiseAndTheKeyframesNotM
   disagreeing.keyframes[2].plane->distance *= 1.3;
   RouteAuditOptions options;
   options.aliasing = false;
+  options.repeat.plane_sigma_from_neighbours = false;
+  options.repeat.pose.common_shift_sigma_px = 0.0;  // the pixel noise alone
   const auto without = auditRoute(disagreeing, options);
   options.repeat.plane_sigma_from_neighbours = true;
   const auto with = auditRoute(disagreeing, options);
@@ -296,8 +300,9 @@ TEST_F(RouteAuditTest, TheFixToFixPartIsTheCurrentImagesNoiseAndTheKeyframesNotM
   EXPECT_GT(positionSigma(charged), 1.5 * positionSigma(plain));
   EXPECT_LT((*charged.predicted_fix_to_fix_covariance - *plain.predicted_fix_to_fix_covariance).norm(),
             1e-9 * plain.predicted_fix_to_fix_covariance->norm());
-  // Without the plane's term the rest is pixel noise and the heading floor (none by default).
+  // Without the plane's term the rest is pixel noise and the heading floor (none here).
   ASSERT_EQ(options.repeat.pose.heading_sigma_rad, 0.0);
+  ASSERT_EQ(options.repeat.pose.common_shift_sigma_px, 0.0);
   const double p = plain.expected_match_fraction;
   for (int k = 0; k < 3; ++k) {
     const double shared = (*plain.predicted_covariance)(k, k) - (*plain.predicted_fix_to_fix_covariance)(k, k);
@@ -432,6 +437,8 @@ TEST_F(RouteAuditTest, TheProbesStretchScalesThePixelNoise) {
   RouteAuditOptions options;
   options.aliasing = false;
   options.pixel_noise_from_neighbours = false;  // the neighbours' own stretch aside
+  options.repeat.plane_sigma_from_neighbours = false;  // no model terms: the pixel noise alone
+  options.repeat.pose.common_shift_sigma_px = 0.0;
   options.stretch_noise_gain = 0.0;
   const auto plain = auditRoute(route(), options);
   options.stretch_noise_gain = 2.0;
@@ -444,7 +451,7 @@ TEST_F(RouteAuditTest, TheProbesStretchScalesThePixelNoise) {
     EXPECT_GT(b.stretch_noise_scale, 1.0) << k;
     EXPECT_LT(b.stretch_noise_scale, 1.5) << k;
     ASSERT_TRUE(a.predicted_covariance && b.predicted_covariance);
-    // No model terms by default: the whole prediction is pixel noise, and it scales as σ².
+    // No model terms: the whole prediction is pixel noise, and it scales as σ².
     EXPECT_NEAR((*b.predicted_covariance)(0, 0) / (*a.predicted_covariance)(0, 0),
                 b.stretch_noise_scale * b.stretch_noise_scale, 1e-3) << k;
   }

@@ -39,6 +39,14 @@ struct PlanarPoseEstimatorOptions {
   // variance [rad², this std 0-0.05 rad] is added to the heading's in both covariances; 0: pixel
   // noise alone sets the heading's std (hundreds of matches on a wall give a few 0.01°).
   double heading_sigma_rad = 0.0;
+  // The same floor in the image's own unit: a shift of the current image against the keyframe's
+  // that all matches share (the keypoints' common localization error, the image's resampling, the
+  // calibration's principal point), its std [px, 0-5] turned into a heading by the camera's focal
+  // length (σ_θ = σ_shift / fx, docs/math.md §3.8), so that it scales with the image. Its variance
+  // is added to heading_sigma_rad's. 0.5 px: on a real street (KITTI 07) and a real facade
+  // (fountain-P11) with this and plane_sigma_from_neighbours the NEES is 1.3-3.9 per segment where
+  // without it 9-44 (docs/evaluation.md); the simulator's exact camera sets its own.
+  double common_shift_sigma_px = 0.5;
 
   // Throws std::invalid_argument naming the field on an invalid value.
   void validate() const;

@@ -147,6 +147,8 @@ int main(int argc, char** argv) {
 
     RepeatPipelineOptions options;
     options.localization.mode = repeatModeFromString(args.text("mode"));
+    // The simulator's exact camera: no common image shift (config/sim_repeat_node.yaml).
+    options.localization.pose.common_shift_sigma_px = 0.0;
     RenderOptions render;
     render.noise_sigma = args.number("noise");
     render.blur_sigma = args.number("blur");

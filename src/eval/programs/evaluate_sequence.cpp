@@ -79,11 +79,11 @@ std::string percent(const nlohmann::json& fraction) {
   return fraction.is_number() ? formatted(100.0 * fraction.get<double>(), 1) + " %" : "no NEES";
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  keepFreedMemoryForReuse();  // as repeat_node: the frame times are the node's
-  cli::Arguments args(
+// The program's arguments with the repeat's own defaults (repeat_node's and config/repeat_node.yaml's):
+// a flag only changes them.
+cli::Arguments sequenceArguments() {
+  const RepeatOptions repeat_defaults;
+  return cli::Arguments(
       "evaluate_sequence",
       {{"kitti", ""}, {"strecha", ""}, {"bag", ""}, {"repeat-bag", ""}, {"out", ""},
        {"mode", "fast_hd"}, {"level", "gravity"}, {"scale", "1.0"},
@@ -95,7 +95,18 @@ int main(int argc, char** argv) {
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
-       {"pixel-sigma", "0.5"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"}, {"heading-sigma", "0"}, {"teach-tilt", "0"}, {"max-plane-residual", "3"}, {"plane-sigma-from-neighbours", "0"}, {"max-tracked-frames", "2"}, {"background-detection", "1"}, {"mu-line-landmarks", "0"}, {"line-min-length", "25"}, {"shift-heading", "1"}},
+       {"pixel-sigma", std::to_string(repeat_defaults.pose.pixel_sigma_px)},
+       {"plane-normal-sigma", std::to_string(repeat_defaults.pose.plane_normal_sigma_rad)},
+       {"plane-distance-sigma", std::to_string(repeat_defaults.pose.plane_distance_sigma)},
+       {"tilt-sigma", std::to_string(repeat_defaults.pose.tilt_sigma_rad)},
+       {"heading-sigma", std::to_string(repeat_defaults.pose.heading_sigma_rad)},
+       {"common-shift-sigma", std::to_string(repeat_defaults.pose.common_shift_sigma_px)}, {"teach-tilt", "0"},
+       {"max-plane-residual", std::to_string(repeat_defaults.max_plane_residual_px)},
+       {"plane-sigma-from-neighbours", std::to_string(repeat_defaults.plane_sigma_from_neighbours ? 1 : 0)},
+       {"max-tracked-frames", std::to_string(repeat_defaults.max_tracked_frames)},
+       {"background-detection", std::to_string(repeat_defaults.background_detection ? 1 : 0)},
+       {"mu-line-landmarks", std::to_string(repeat_defaults.mu_line_landmarks ? 1 : 0)},
+       {"line-min-length", std::to_string(repeat_defaults.lines.min_length_px)}, {"shift-heading", "1"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -111,11 +122,18 @@ int main(int argc, char** argv) {
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
       "  [--max-plane-residual PX] (RMS of the matches about the keyframe plane's homography above which a keyframe is refused)\n"
       "  [--teach-tilt 0|1] (each keyframe pair's relative pitch and roll estimated with its plane)\n"
-      "  [--heading-sigma RAD] (a heading error many matches do not average away, added to the covariance)\n"
+      "  [--heading-sigma RAD] [--common-shift-sigma PX] (a heading error many matches do not average away, added to the covariance)\n"
       "  [--mu-line-landmarks 0|1] (mu: each keyframe line triangulated with its own depth, a fix from every line)\n"
       "  [--line-min-length PX] (shortest vertical line kept, teach and repeat)\n"
       "  [--shift-heading 0|1] (hybrid: the seasonal heading fix where no other fix, RepeatPipelineOptions)\n"
       "  [--plots 0|1]");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  keepFreedMemoryForReuse();  // as repeat_node: the frame times are the node's
+  cli::Arguments args = sequenceArguments();
   args.parse(argc, argv);
   const std::string out = args.text("out");
   if (out.empty()) args.fail("--out DIR is required");
@@ -145,6 +163,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.localization.pose.tilt_sigma_rad = args.number("tilt-sigma");
   options.repeat.localization.pose.heading_sigma_rad = args.number("heading-sigma");
+  options.repeat.localization.pose.common_shift_sigma_px = args.number("common-shift-sigma");
   options.repeat.localization.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.repeat.localization.max_tracked_frames = args.integer("max-tracked-frames");
   options.repeat.localization.background_detection = args.integer("background-detection") != 0;
@@ -242,6 +261,7 @@ int main(int argc, char** argv) {
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
                        {"tilt_sigma", options.repeat.localization.pose.tilt_sigma_rad},
                        {"heading_sigma", options.repeat.localization.pose.heading_sigma_rad},
+                       {"common_shift_sigma_px", options.repeat.localization.pose.common_shift_sigma_px},
                        {"mu_line_landmarks", options.repeat.localization.mu_line_landmarks},
                        {"line_min_length_px", options.teach.lines.min_length_px},
                        {"teach_tilt", options.teach.estimate_keyframe_tilt},

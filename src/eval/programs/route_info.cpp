@@ -130,6 +130,7 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                        {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
                        {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
                        {"heading_sigma", options.repeat.pose.heading_sigma_rad},
+                       {"common_shift_sigma_px", options.repeat.pose.common_shift_sigma_px},
                        {"min_plane_features", options.min_plane_features},
                        {"max_position_sigma_m", options.max_position_sigma_m},
                        {"max_heading_sigma_rad", options.max_heading_sigma_rad},
@@ -213,22 +214,28 @@ int auditJunctions(const RouteMap& map, const RepeatOptions& repeat, const std::
   return writeDocument(document, out + "/map_audit.json", plots);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  cli::Arguments args(
+// The program's arguments with the repeat's own defaults (repeat_node's and config/repeat_node.yaml's):
+// a flag only changes them.
+cli::Arguments routeInfoArguments() {
+  const PlanarPoseEstimatorOptions pose_defaults = RepeatOptions().pose;
+  return cli::Arguments(
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
-       {"pixel-sigma", "0.30"}, {"plane-normal-sigma", "0"}, {"plane-distance-sigma", "0"}, {"tilt-sigma", "0"},
-       {"heading-sigma", "0"}, {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"pixel-sigma", std::to_string(pose_defaults.pixel_sigma_px)},
+       {"plane-normal-sigma", std::to_string(pose_defaults.plane_normal_sigma_rad)},
+       {"plane-distance-sigma", std::to_string(pose_defaults.plane_distance_sigma)},
+       {"tilt-sigma", std::to_string(pose_defaults.tilt_sigma_rad)}, {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
+       {"common-shift-sigma", std::to_string(pose_defaults.common_shift_sigma_px)},
+       {"plane-sigma-from-neighbours", RepeatOptions().plane_sigma_from_neighbours ? "1" : "0"},
+       {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"shift-heading", "1"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
       "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
-      "  [--heading-sigma RAD] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance terms, as repeat_node's\n"
-      "  parameters)\n"
+      "  [--heading-sigma RAD] [--common-shift-sigma PX] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance\n"
+      "  terms, as repeat_node's parameters; the defaults are its defaults)\n"
       "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off)\n"
       "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
@@ -236,6 +243,12 @@ int main(int argc, char** argv) {
       "  [--min-lines N] (what makes a keyframe weak)\n"
       "  [--shift-heading 0|1] (1: the seasonal heading fix's features and vote per keyframe, ~0.2 s each)\n"
       "  [--plots 0|1]");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Arguments args = routeInfoArguments();
   args.parse(argc, argv);
   if (!args.text("migrate").empty()) {
     const auto before = loadRoute(args.text("migrate"));
@@ -257,6 +270,7 @@ int main(int argc, char** argv) {
   options.repeat.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.pose.tilt_sigma_rad = args.number("tilt-sigma");
   options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
+  options.repeat.pose.common_shift_sigma_px = args.number("common-shift-sigma");
   options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
   options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
   options.stretch_noise_gain = args.number("stretch-noise-gain");
