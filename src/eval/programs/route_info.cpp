@@ -217,7 +217,8 @@ int auditJunctions(const RouteMap& map, const RepeatOptions& repeat, const std::
 // The program's arguments with the repeat's own defaults (repeat_node's and config/repeat_node.yaml's):
 // a flag only changes them.
 cli::Arguments routeInfoArguments() {
-  const PlanarPoseEstimatorOptions pose_defaults = RepeatOptions().pose;
+  const RepeatOptions repeat_defaults;
+  const PlanarPoseEstimatorOptions& pose_defaults = repeat_defaults.pose;
   return cli::Arguments(
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
@@ -226,7 +227,7 @@ cli::Arguments routeInfoArguments() {
        {"plane-distance-sigma", std::to_string(pose_defaults.plane_distance_sigma)},
        {"tilt-sigma", std::to_string(pose_defaults.tilt_sigma_rad)}, {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
        {"common-shift-sigma", std::to_string(pose_defaults.common_shift_sigma_px)},
-       {"plane-sigma-from-neighbours", RepeatOptions().plane_sigma_from_neighbours ? "1" : "0"},
+       {"plane-sigma-from-neighbours", repeat_defaults.plane_sigma_from_neighbours ? "1" : "0"},
        {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"shift-heading", "1"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
