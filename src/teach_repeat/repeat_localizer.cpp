@@ -50,7 +50,8 @@ bool RepeatLocalizer::backgroundDetectionOn() const {
   return o.background_detection && o.max_tracked_frames > 0 && estimator_->usesPointFeatures();
 }
 
-Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& options) {
+Expected<RepeatLocalizer> RepeatLocalizer::create(const Route& route, const RepeatOptions& configured) {
+  const RepeatOptions options = withMeasuredNoise(configured, route);
   auto keyframes = KeyframeStore::load(route, options);  // validates the options
   if (!keyframes) return keyframes.status();
   const EstimatorContext context{PinholeCamera(route.info.camera), route.info.feature_type, route.info.camera_mount,

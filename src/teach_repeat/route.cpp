@@ -5,6 +5,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -170,7 +171,34 @@ Status RouteWriter::setPlanes(const std::vector<std::optional<ScenePlane>>& plan
   return writeIndex();
 }
 
+Status RouteWriter::setMatchResiduals(const std::vector<std::optional<MatchResidual>>& residuals) {
+  if (residuals.size() != route_.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "one match residual (or none) per keyframe is needed");
+  }
+  for (std::size_t k = 0; k < residuals.size(); ++k) {
+    if (residuals[k] && !(std::isfinite(residuals[k]->rms_px) && residuals[k]->rms_px > 0.0 && residuals[k]->inliers >= 4)) {
+      return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(k) +
+                                                   ": match residual must be finite and > 0 with >= 4 inliers");
+    }
+  }
+  for (std::size_t k = 0; k < residuals.size(); ++k) route_.keyframes[k].match_residual = residuals[k];
+  route_.info.match_noise_measured = true;
+  return writeIndex();
+}
+
 Status RouteWriter::writeIndex() const { return writeRouteIndex(route_); }
+
+std::optional<double> routeMatchResidual(const Route& route) {
+  if (!route.info.match_noise_measured) return std::nullopt;
+  std::vector<double> values;
+  for (const RouteKeyframe& k : route.keyframes) {
+    if (k.match_residual) values.push_back(k.match_residual->rms_px);
+  }
+  if (values.empty()) return std::nullopt;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
 
 Status writeRouteIndex(const Route& route) {
   const RouteInfo& info = route.info;
@@ -197,6 +225,11 @@ Status writeRouteIndex(const Route& route) {
   out << YAML::Key << "camera_mount" << YAML::Value;
   emitPose(out, info.camera_mount);
   out << YAML::Key << "first_plane_distance" << YAML::Value << info.first_plane_distance;
+  if (info.match_noise_measured) {
+    // For the reader; loading takes the keyframes' values (routeMatchResidual), 0: none measured.
+    out << YAML::Key << "measured_noise" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+        << "match_residual_px" << YAML::Value << routeMatchResidual(route).value_or(0.0) << YAML::EndMap;
+  }
   out << YAML::Key << "keyframes" << YAML::Value << YAML::BeginSeq;
   for (const auto& k : route.keyframes) {
     out << YAML::BeginMap;
@@ -212,6 +245,11 @@ Status writeRouteIndex(const Route& route) {
       out << YAML::Key << "normal" << YAML::Value << YAML::Flow << YAML::BeginSeq
           << k.plane->normal.x() << k.plane->normal.y() << k.plane->normal.z() << YAML::EndSeq;
       out << YAML::Key << "distance" << YAML::Value << k.plane->distance << YAML::EndMap;
+    }
+    if (k.match_residual) {
+      out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
+          << YAML::Value << k.match_residual->rms_px << YAML::Key << "inliers" << YAML::Value
+          << k.match_residual->inliers << YAML::EndMap;
     }
     if (!k.experiences.empty()) {
       out << YAML::Key << "experiences" << YAML::Value << YAML::BeginSeq;
@@ -295,6 +333,13 @@ Expected<Route> loadRoute(const std::string& directory) {
     }
     route.info.camera_mount = reader.pose(root, "camera_mount");
     route.info.first_plane_distance = reader.finite(root, "first_plane_distance");
+    if (const YAML::Node measured = root["measured_noise"]) {
+      if (version < 3) throw reader.error(measured, "'measured_noise' needs format_version 3");
+      if (!measured.IsMap()) throw reader.error(measured, "'measured_noise' must be a map");
+      const double residual = reader.finite(measured, "match_residual_px");
+      if (residual < 0.0) throw reader.error(measured, "match_residual_px must be >= 0");
+      route.info.match_noise_measured = true;
+    }
     const YAML::Node keyframes = root["keyframes"];
     if (!keyframes || !keyframes.IsSequence()) throw reader.error(root, "missing list 'keyframes'");
     for (const auto& node : keyframes) {
@@ -323,6 +368,19 @@ Expected<Route> loadRoute(const std::string& directory) {
         const Status valid = p.validate();
         if (valid.code() == StatusCode::kInvalidInput) throw reader.error(plane, valid.message());
         k.plane = p;
+      }
+      if (const YAML::Node residual = node["match_residual"]) {
+        const std::string name = "keyframe " + std::to_string(k.index) + ": match_residual";
+        if (version < 3) throw reader.error(residual, name + " needs format_version 3");
+        if (!residual.IsMap()) throw reader.error(residual, name + " must be a map {rms_px, inliers}");
+        MatchResidual measured;
+        measured.rms_px = reader.get<double>(residual, "rms_px");
+        measured.inliers = reader.get<int>(residual, "inliers");
+        if (!std::isfinite(measured.rms_px) || !(measured.rms_px > 0.0)) {
+          throw reader.error(residual, name + ".rms_px must be finite and > 0");
+        }
+        if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
+        k.match_residual = measured;
       }
       if (const YAML::Node experiences = node["experiences"]) {
         if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
@@ -357,12 +415,6 @@ Expected<Route> loadRoute(const std::string& directory) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
   return route;
-}
-
-Status migrateRoute(const std::string& directory) {
-  auto route = loadRoute(directory);
-  if (!route) return route.status();
-  return writeRouteIndex(*route);
 }
 
 Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, const ImageFeatures& features,

@@ -164,7 +164,9 @@ void RouteAuditOptions::validate() const {
   }
 }
 
-Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& options) {
+Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& configured) {
+  RouteAuditOptions options = configured;
+  options.repeat = withMeasuredNoise(configured.repeat, route);  // the σ the repeat will use
   try {
     options.validate();
   } catch (const std::invalid_argument& e) {

@@ -108,9 +108,11 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
                           route.info.camera_mount.yaw);
   // Consecutive pairs until the first failure: the propagation (docs/math.md §2.2) needs every link.
   std::vector<ReferencePair> pairs;
+  std::vector<std::optional<MatchResidual>> residuals(route.keyframes.size());
   for (std::size_t k = 0; k + 1 < route.keyframes.size(); ++k) {
     const auto registered = registerFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching,
                                              options_.robust, &camera_);
+    if (registered) residuals[k] = matchResidualOf(*registered);
     ReferencePair pair;
     pair.has_odometry = true;
     pair.odometry_motion =
@@ -128,6 +130,8 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     }
     pairs.push_back(pair);
   }
+  const Status measured = writer_->setMatchResiduals(residuals);
+  if (!measured.isOk()) return measured;
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;
   plane_options.estimate_tilt = options_.estimate_keyframe_tilt;
@@ -149,6 +153,40 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   const Status written = writer_->setPlanes(planes, options_.first_plane_distance);
   if (!written.isOk()) return written;
   return report;
+}
+
+std::optional<MatchResidual> matchResidualOf(const RegistrationResult& registered) {
+  const MatchResidual residual{registered.homography.rms_transfer_error_px,
+                               static_cast<int>(registered.homography.inliers.size())};
+  if (residual.inliers < 4 || !std::isfinite(residual.rms_px) || !(residual.rms_px > 0.0)) return std::nullopt;
+  return residual;
+}
+
+Status measureMatchNoise(Route& route, const MatchOptions& matching, const RobustHomographyOptions& robust) {
+  const PinholeCamera camera(route.info.camera);
+  for (RouteKeyframe& keyframe : route.keyframes) keyframe.match_residual.reset();
+  ImageFeatures current;
+  for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
+    auto loaded = loadKeyframeFeatures(route, k);
+    if (!loaded) return loaded.status();
+    if (k > 0) {
+      const auto registered = registerFeatures(current, *loaded, matching, robust, &camera);
+      if (registered) route.keyframes[k - 1].match_residual = matchResidualOf(*registered);
+    }
+    current = std::move(*loaded);
+  }
+  route.info.match_noise_measured = true;
+  return Status::ok();
+}
+
+Status migrateRoute(const std::string& directory) {
+  auto route = loadRoute(directory);
+  if (!route) return route.status();
+  if (!route->info.match_noise_measured) {
+    const Status measured = measureMatchNoise(*route);
+    if (!measured.isOk()) return measured;
+  }
+  return writeRouteIndex(*route);
 }
 
 }  // namespace homography_teach_repeat

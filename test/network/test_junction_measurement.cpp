@@ -29,6 +29,7 @@ std::string teachBranch(const SyntheticWall& wall, const std::string& directory)
   options.features.type = FeatureType::kSift;
   options.keyframes.distance = 0.25;
   options.first_plane_distance = wall.plane.distance;
+  options.planes_from_odometry = false;
   auto session = TeachSession::start(options, syntheticCalibration(), Pose2D(0.0, 0.0, 0.0));
   if (!session) throw std::runtime_error(session.status().toString());
   for (int step = 0; step < 8; ++step) {

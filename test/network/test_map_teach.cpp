@@ -22,6 +22,7 @@ MapTeachOptions branchOptions(const std::string& name) {
   options.teach.features.type = FeatureType::kSift;
   options.teach.keyframes.distance = 0.25;
   options.teach.first_plane_distance = SyntheticWall().plane.distance;
+  options.teach.planes_from_odometry = false;
   return options;
 }
 

@@ -66,7 +66,7 @@ TEST(RepeatNodeLearning, SavesTheViewsItLearnedIntoTheRoute) {
   std::cout << "save_experiences: " << save.response.message << "\n";
   const auto learned = loadRoute(directory);
   ASSERT_TRUE(learned.isOk()) << learned.status().toString();
-  EXPECT_EQ(learned->loaded_format_version, 2);
+  EXPECT_EQ(learned->loaded_format_version, kRouteFormatVersion);
   int experiences = 0;
   for (std::size_t k = 0; k < learned->keyframes.size(); ++k) {
     for (const auto& e : learned->keyframes[k].experiences) {

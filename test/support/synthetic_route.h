@@ -63,6 +63,7 @@ inline std::string teachSyntheticRoute(const SyntheticWall& wall, FeatureType ty
   options.features.type = type;
   options.keyframes.distance = 0.25;
   options.first_plane_distance = wall.plane.distance;
+  options.planes_from_odometry = false;  // the paper's single plane with this scale
   auto session = TeachSession::start(options, syntheticCalibration(), Pose2D(0.0, 0.0, 0.0));
   if (!session) throw std::runtime_error(session.status().toString());
   for (int step = 0; step < steps; ++step) {

@@ -14,6 +14,7 @@
 
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 using namespace homography_teach_repeat;
 
@@ -160,7 +161,7 @@ TEST(Route, CorruptOrMissingFilesNameTheFile) {
       << truncated.status().message();
   // Unknown version.
   std::string newer = *index;
-  newer.replace(newer.find("format_version: 2"), 17, "format_version: 7");
+  newer.replace(newer.find("format_version: 3"), 17, "format_version: 7");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", newer).isOk());
   auto version = loadRoute(dir);
   EXPECT_NE(version.status().message().find("unknown format_version 7"), std::string::npos);
@@ -284,27 +285,79 @@ TEST(Route, KeepsTheLevellingOfATiltedMount) {
   EXPECT_NE(bad.status().message().find("camera_to_level"), std::string::npos) << bad.status().message();
 }
 
-// Version 1 (before experiences) is read as it is and rewritten as version 2 by migrateRoute,
-// keyframes unchanged; experiences in a version-1 index are refused naming the field.
-TEST(Route, MigratesAVersionOneRoute) {
+// Versions 1 (before experiences) and 2 (before the measured noise) are read as they are and
+// rewritten as version 3 by migrateRoute, keyframes unchanged and the match noise measured;
+// experiences in a version-1 index and measured values in a version-2 index are refused naming the
+// field.
+TEST(Route, MigratesOlderRoutesMeasuringTheirNoise) {
+  for (const char* version : {"1", "2"}) {
+    const std::string dir = temporaryDirectory();
+    writeRoute(dir, 3);
+    auto index = readWholeFile(dir + "/route.yaml");
+    ASSERT_TRUE(index.isOk());
+    std::string old = *index;
+    old.replace(old.find("format_version: 3"), 17, std::string("format_version: ") + version);
+    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", old).isOk());
+    const auto before = loadRoute(dir);
+    ASSERT_TRUE(before.isOk()) << before.status().toString();
+    EXPECT_EQ(before->loaded_format_version, std::atoi(version));
+    EXPECT_FALSE(before->info.match_noise_measured);
+    EXPECT_FALSE(routeMatchResidual(*before).has_value());
+    ASSERT_TRUE(migrateRoute(dir).isOk());
+    const auto after = loadRoute(dir);
+    ASSERT_TRUE(after.isOk()) << after.status().toString();
+    EXPECT_EQ(after->loaded_format_version, kRouteFormatVersion);
+    EXPECT_TRUE(after->info.match_noise_measured);
+    ASSERT_EQ(after->keyframes.size(), 3u);
+    EXPECT_DOUBLE_EQ(after->keyframes[2].pose.x, before->keyframes[2].pose.x);
+    EXPECT_EQ(after->keyframes[1].features_file, before->keyframes[1].features_file);
+  }
+  EXPECT_FALSE(migrateRoute(temporaryDirectory() + "/nowhere").isOk());
+}
+
+// The measured noise round-trips; a value that is not finite, not positive or from too few inliers
+// is refused on load naming the keyframe, and by the writer; the route's value is the median.
+TEST(Route, MeasuredMatchNoiseIsKeptAndValidated) {
   const std::string dir = temporaryDirectory();
   writeRoute(dir, 3);
+  auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk());
+  route->info.match_noise_measured = true;
+  route->keyframes[0].match_residual = MatchResidual{0.5, 100};
+  route->keyframes[1].match_residual = MatchResidual{0.25, 50};
+  route->keyframes[2].match_residual = MatchResidual{0.375, 80};
+  ASSERT_TRUE(writeRouteIndex(*route).isOk());
+  const auto loaded = loadRoute(dir);
+  ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
+  ASSERT_TRUE(loaded->keyframes[1].match_residual.has_value());
+  EXPECT_DOUBLE_EQ(loaded->keyframes[1].match_residual->rms_px, 0.25);
+  EXPECT_EQ(loaded->keyframes[1].match_residual->inliers, 50);
+  ASSERT_TRUE(routeMatchResidual(*loaded).has_value());
+  EXPECT_DOUBLE_EQ(*routeMatchResidual(*loaded), 0.375);
+
   auto index = readWholeFile(dir + "/route.yaml");
   ASSERT_TRUE(index.isOk());
-  std::string old = *index;
-  old.replace(old.find("format_version: 2"), 17, "format_version: 1");
-  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", old).isOk());
-  const auto v1 = loadRoute(dir);
-  ASSERT_TRUE(v1.isOk()) << v1.status().toString();
-  EXPECT_EQ(v1->loaded_format_version, 1);
-  ASSERT_TRUE(migrateRoute(dir).isOk());
-  const auto v2 = loadRoute(dir);
-  ASSERT_TRUE(v2.isOk()) << v2.status().toString();
-  EXPECT_EQ(v2->loaded_format_version, 2);
-  ASSERT_EQ(v2->keyframes.size(), 3u);
-  EXPECT_DOUBLE_EQ(v2->keyframes[2].pose.x, v1->keyframes[2].pose.x);
-  EXPECT_EQ(v2->keyframes[1].features_file, v1->keyframes[1].features_file);
-  EXPECT_FALSE(migrateRoute(dir + "/nowhere").isOk());
+  const std::string good = "{rms_px: 0.25, inliers: 50}";
+  for (const std::string& bad : {std::string("{rms_px: .nan, inliers: 50}"), std::string("{rms_px: -0.25, inliers: 50}"),
+                                 std::string("{rms_px: 0.25, inliers: 2}"), std::string("{rms_px: 0.25}")}) {
+    std::string text = *index;
+    const std::size_t at = text.find(good);
+    ASSERT_NE(at, std::string::npos) << text;
+    text.replace(at, good.size(), bad);
+    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", text).isOk());
+    const auto refused = loadRoute(dir);
+    ASSERT_FALSE(refused.isOk()) << bad;
+    EXPECT_NE(refused.status().message().find(bad == "{rms_px: 0.25}" ? "inliers" : "keyframe 1"), std::string::npos)
+        << refused.status().message();
+  }
+  RouteInfo info = route->info;
+  auto writer = RouteWriter::create(temporaryDirectory(), info);
+  ASSERT_TRUE(writer.isOk());
+  ASSERT_TRUE(writer->addKeyframe(image(1), features(3), {}, Pose2D(0, 0, 0), 1.0).isOk());
+  EXPECT_FALSE(writer->setMatchResiduals({MatchResidual{std::nan(""), 10}}).isOk());
+  EXPECT_FALSE(writer->setMatchResiduals({MatchResidual{0.3, 3}}).isOk());
+  EXPECT_FALSE(writer->setMatchResiduals({}).isOk());
+  EXPECT_TRUE(writer->setMatchResiduals({MatchResidual{0.3, 10}}).isOk());
 }
 
 // Experiences: written file by file then the index (each atomically), read back with their pose

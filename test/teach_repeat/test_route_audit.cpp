@@ -72,18 +72,28 @@ TEST_F(RouteAuditTest, AWellTexturedWallGivesEveryKeyframeAPredictedFixAndNoAlia
   EXPECT_EQ(audit->weak_for_fast_hd, 0);
 }
 
-// The prediction is the repeat's own covariance model: twice the pixel noise, twice the sigma.
+// The prediction is the repeat's own covariance model: twice the pixel noise, twice the sigma;
+// the pixel noise is the route's measured one times match_residual_gain (docs/math.md §3.9), or
+// with a gain of 0 the configured one.
 TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
+  ASSERT_TRUE(routeMatchResidual(route()).has_value());  // the teach run measured it
   RouteAuditOptions options;
   options.aliasing = false;
   options.repeat.pose.refine = false;  // the closed form's covariance is linear in the pixel sigma
+  options.repeat.match_residual_gain = 0.0;
   const auto once = auditRoute(route(), options);
   options.repeat.pose.pixel_sigma_px *= 2.0;
   const auto twice = auditRoute(route(), options);
-  ASSERT_TRUE(once.isOk() && twice.isOk());
+  options.repeat.match_residual_gain = 1.5;
+  const auto measured = auditRoute(route(), options);
+  options.repeat.match_residual_gain = 3.0;
+  const auto measured_twice = auditRoute(route(), options);
+  ASSERT_TRUE(once.isOk() && twice.isOk() && measured.isOk() && measured_twice.isOk());
   for (std::size_t k = 0; k < once->keyframes.size(); ++k) {
     ASSERT_TRUE(once->keyframes[k].predicted_covariance && twice->keyframes[k].predicted_covariance);
     EXPECT_NEAR(positionSigma(twice->keyframes[k]) / positionSigma(once->keyframes[k]), 2.0, 0.05) << k;
+    ASSERT_TRUE(measured->keyframes[k].predicted_covariance && measured_twice->keyframes[k].predicted_covariance);
+    EXPECT_NEAR(positionSigma(measured_twice->keyframes[k]) / positionSigma(measured->keyframes[k]), 2.0, 0.05) << k;
   }
 }
 

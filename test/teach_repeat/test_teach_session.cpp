@@ -11,6 +11,7 @@
 
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 #include "support/synthetic_route.h"
 
@@ -31,6 +32,7 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
   options.features.type = FeatureType::kAkaze;
   options.keyframes.distance = 0.25;
   options.first_plane_distance = 4.0;
+  options.planes_from_odometry = false;  // the paper's single plane with the tape-measured scale
   auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
   ASSERT_TRUE(session.isOk()) << session.status().toString();
   const SyntheticWall scene;
@@ -64,6 +66,70 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
     EXPECT_LT(std::acos(std::min(1.0, p.normal.dot(truth->normal))), 2.0 * M_PI / 180.0) << k;
     EXPECT_NEAR(p.distance, truth->distance, 0.03 * truth->distance) << k;
   }
+  std::filesystem::remove_all(dir);
+}
+
+// The teach run measures how closely each keyframe's features match the next keyframe's (the
+// synthetic wall's images: a fraction of a pixel), stores it in the route, and the same
+// measurement from the stored files (measureMatchNoise, the migration's) finds the same values.
+// The repeat's pixel σ is match_residual_gain times the route's median residual; with a gain of 0
+// or on a route that was not measured the configured one, and the log line says which.
+TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
+  const std::string dir = makeTemporaryDirectory("htr_teach_noise");
+  TeachOptions options;
+  options.route_directory = dir;
+  options.features.type = FeatureType::kAkaze;
+  options.keyframes.distance = 0.25;
+  EXPECT_TRUE(options.planes_from_odometry);  // no tape measure by default
+  auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
+  ASSERT_TRUE(session.isOk()) << session.status().toString();
+  const SyntheticWall scene;
+  for (int step = 0; step <= 15; ++step) {
+    const double s = 0.1 * step;
+    const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
+    ASSERT_TRUE(session->offer(scene.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step).isOk());
+  }
+  const auto report = session->finish();
+  ASSERT_TRUE(report.isOk()) << report.status().toString();
+  EXPECT_EQ(report->planes, 6);
+  auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  ASSERT_EQ(route->keyframes.size(), 6u);
+  EXPECT_TRUE(route->info.match_noise_measured);
+  for (std::size_t k = 0; k + 1 < route->keyframes.size(); ++k) {
+    ASSERT_TRUE(route->keyframes[k].match_residual.has_value()) << k;
+    EXPECT_GT(route->keyframes[k].match_residual->rms_px, 0.0) << k;
+    EXPECT_LT(route->keyframes[k].match_residual->rms_px, 1.0) << k;
+    EXPECT_GE(route->keyframes[k].match_residual->inliers, 15) << k;
+  }
+  EXPECT_FALSE(route->keyframes.back().match_residual.has_value());  // no next keyframe
+  const double residual = routeMatchResidual(*route).value_or(-1.0);
+  EXPECT_GT(residual, 0.0);
+
+  Route measured = *route;
+  ASSERT_TRUE(measureMatchNoise(measured).isOk());
+  for (std::size_t k = 0; k + 1 < route->keyframes.size(); ++k) {
+    ASSERT_TRUE(measured.keyframes[k].match_residual.has_value()) << k;
+    EXPECT_NEAR(measured.keyframes[k].match_residual->rms_px, route->keyframes[k].match_residual->rms_px, 0.01) << k;
+  }
+
+  RepeatOptions repeat;
+  repeat.pose.pixel_sigma_px = 0.5;
+  repeat.match_residual_gain = 1.5;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.pixel_sigma_px, 1.5 * residual);
+  EXPECT_NE(describeMeasuredNoise(repeat, *route).find("match_residual_gain 1.50"), std::string::npos)
+      << describeMeasuredNoise(repeat, *route);
+  repeat.match_residual_gain = 0.0;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.pixel_sigma_px, 0.5);
+  repeat.match_residual_gain = 1.5;
+  Route older = *route;
+  older.info.match_noise_measured = false;
+  older.loaded_format_version = 2;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, older).pose.pixel_sigma_px, 0.5);
+  EXPECT_NE(describeMeasuredNoise(repeat, older).find("route_info --migrate " + dir), std::string::npos)
+      << describeMeasuredNoise(repeat, older);
+  repeat.match_residual_gain = -1.0;
+  EXPECT_THROW(repeat.validate(), std::invalid_argument);
   std::filesystem::remove_all(dir);
 }
 

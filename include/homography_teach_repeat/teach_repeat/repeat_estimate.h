@@ -14,6 +14,7 @@
 #include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/mu/heading_correction.h"
 #include "homography_teach_repeat/mu/line_landmarks.h"
+#include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
 
@@ -62,6 +63,14 @@ struct RepeatOptions {
   // covariance of a real street's corners claims ten times less than their error
   // (docs/evaluation.md, KITTI 07).
   bool plane_sigma_from_neighbours = true;
+  // fast_hd: the covariance's pixel σ from the route's own images: this gain times the match
+  // residual the teach run measured (route.h, routeMatchResidual; docs/math.md §3.9), instead of
+  // pose.pixel_sigma_px, which stays for a route without one (format 1-2) and for a gain of 0.
+  // [0-10] 1.5: the σ the covariance needs is larger than the residual of neighbouring keyframes'
+  // inliers about their homography (the inliers are the closer matches, the rest of the model is
+  // not exact); 1.5 brings the simulator's room (residual 0.18 px) and KITTI 07 (0.34 px) to the
+  // σ each was consistent with (0.30 and 0.5 px; docs/evaluation.md).
+  double match_residual_gain = 1.5;
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;
@@ -159,5 +168,13 @@ struct LocalizeTiming {
   // one (RepeatOptions::background_detection); extraction_ms includes the wait for them.
   bool background = false;
 };
+
+// `options` for `route`: pose.pixel_sigma_px = match_residual_gain × the route's measured match
+// residual where it has one and the gain is > 0; otherwise `options` unchanged. RepeatLocalizer
+// and the route audit localize with it (docs/math.md §3.9).
+RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route);
+// One line for the log: which pixel σ withMeasuredNoise gives and where it comes from (the route's
+// residual and the gain; the gain 0; or a route that was not measured, with how to measure it).
+std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route);
 
 }  // namespace homography_teach_repeat

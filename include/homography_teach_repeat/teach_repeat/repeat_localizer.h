@@ -42,8 +42,9 @@ class RepeatLocalizer {
   // Accepts (ok) or refuses (the reason) a pose estimate before it is used or remembered.
   using PoseCheck = std::function<Status(const RepeatEstimate&)>;
 
-  // Loads every keyframe's features or lines. kInvalidInput naming the file for a corrupt
-  // keyframe; kInvalidInput when fast_hd/classic mode meets a route without planes.
+  // Loads every keyframe's features or lines, and localizes with withMeasuredNoise(options, route)
+  // (the covariance's pixel σ from the route's measured noise). kInvalidInput naming the file for a
+  // corrupt keyframe; kInvalidInput when fast_hd/classic mode meets a route without planes.
   static Expected<RepeatLocalizer> create(const Route& route, const RepeatOptions& options);
 
   // Status: kInvalidInput (empty/odd image, size differs from the route's camera), or the failure

@@ -5,17 +5,22 @@
 // Every file is written atomically (atomic_file.h) and the index last, so a crash while teaching
 // loses at most the keyframe being written: the index only ever lists complete keyframes.
 //
-// route.yaml (format_version 2; version 1, without experiences, is read as well and rewritten as 2
-// by migrateRoute or the next write):
-//   format_version: 2
+// route.yaml (format_version 3; versions 1, without experiences, and 2, without the measured match
+// noise, are read as well and rewritten as 3 by migrateRoute, which measures the noise, or the next write):
+//   format_version: 3
 //   feature_type: sift | orb | akaze | surf
 //   camera: {width, height, fx, fy, cx, cy, distortion_model, distortion: [..]}
 //   camera_mount: {x, y, yaw}            # camera optical centre in base_link [m, rad]
 //   first_plane_distance: 3.2            # user-given scale [m]; 0 = unknown
+//   measured_noise: {match_residual_px: 0.30}  # the keyframes' median match residual (below);
+//                                        # absent: not measured (format 1-2)
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
 //        plane: {normal: [nx, ny, nz], distance: d},      # optional, in the keyframe camera frame
+//        match_residual: {rms_px: 0.31, inliers: 412},    # optional: its features matched to the
+//                                                         # next keyframe's (teach), the inliers' rms
+//                                                         # transfer error about their homography [px]
 //        experiences:                                     # optional: other views of this place
 //          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
 //             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
@@ -39,7 +44,15 @@
 
 namespace homography_teach_repeat {
 
-constexpr int kRouteFormatVersion = 2;
+constexpr int kRouteFormatVersion = 3;
+
+// How closely a keyframe's features match the next keyframe's about their homography, measured by
+// the teach run (teach_session.h, measureMatchNoise): the pixel noise of this camera, lens and
+// scene as the repeat's matches will have it (docs/route_format.md, "Measured noise").
+struct MatchResidual {
+  double rms_px = 0.0;  // rms transfer error of the inliers [px, > 0]
+  int inliers = 0;      // [>= 4]
+};
 
 // Another view of a keyframe's place, learned by a repeat run where the taught view matched weakly
 // (changed appearance: a poster replaced, other light). Localized against like the keyframe, with
@@ -61,6 +74,7 @@ struct RouteKeyframe {
   std::string features_file;
   std::string lines_file;
   std::optional<ScenePlane> plane;  // dominant plane in this keyframe's camera frame
+  std::optional<MatchResidual> match_residual;  // absent: not measured, or the pair did not register
   std::vector<RouteExperience> experiences;
 };
 
@@ -69,14 +83,21 @@ struct RouteInfo {
   CameraCalibration camera;
   Pose2D camera_mount;  // camera optical centre and yaw in base_link (planar part of the tf)
   double first_plane_distance = 0.0;
+  // Whether the keyframes' match residuals were measured (format 3); false for an older route,
+  // whose repeat falls back to the configured pixel_sigma (repeat_estimate.h, withMeasuredNoise).
+  bool match_noise_measured = false;
 };
 
 struct Route {
   std::string directory;
   RouteInfo info;
   std::vector<RouteKeyframe> keyframes;
-  int loaded_format_version = kRouteFormatVersion;  // as found on disk (1: not yet migrated)
+  int loaded_format_version = kRouteFormatVersion;  // as found on disk (1, 2: not yet migrated)
 };
+
+// The route's match residual: the median over its keyframes' rms_px [px]; nullopt when not measured
+// or no keyframe has one.
+std::optional<double> routeMatchResidual(const Route& route);
 
 // Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed
 // along a path through a map of routes, network/path_route.h, names files of several routes),
@@ -85,11 +106,6 @@ std::string routeFilePath(const std::string& directory, const std::string& file)
 
 // Writes route.yaml (format_version 2) atomically from `route`.
 Status writeRouteIndex(const Route& route);
-
-// Rewrites a route's index in the current format (a version-1 route becomes version 2: the same
-// keyframes, no experiences). Atomic; the keyframe files are untouched. kInvalidInput naming the
-// file when the route cannot be read or written.
-Status migrateRoute(const std::string& directory);
 
 // Adds a learned view to keyframe `keyframe` of `route` (loaded from its directory): writes its
 // image and features, then the index, each atomically. When the keyframe already has
@@ -113,6 +129,10 @@ class RouteWriter {
   Status addKeyframe(const cv::Mat& image, const ImageFeatures& features,
                      const std::vector<VerticalLine>& lines, const Pose2D& pose, double stamp);
 
+  // Sets each keyframe's match residual (size must match; finite rms > 0 and >= 4 inliers where
+  // present) and marks the route's noise measured; rewrites the index.
+  Status setMatchResiduals(const std::vector<std::optional<MatchResidual>>& residuals);
+
   // Sets the plane of each keyframe (size must match) and the scale; rewrites the index.
   Status setPlanes(const std::vector<std::optional<ScenePlane>>& planes,
                    double first_plane_distance);
@@ -135,7 +155,8 @@ Status checkRouteDirectoryWritable(const std::string& directory, bool overwrite)
 // Reads and validates route.yaml (not the per-keyframe files). Status kInvalidInput naming the
 // file for: a missing directory or index, YAML syntax errors (with line), an unknown
 // format_version, missing or ill-typed fields, non-finite numbers, a bad camera, duplicate or
-// unordered keyframe indices, a keyframe file that does not exist.
+// unordered keyframe indices, a keyframe file that does not exist, a measured value that is not
+// finite or out of range (naming the keyframe).
 Expected<Route> loadRoute(const std::string& directory);
 
 // Whether a route is a loop: at least 3 keyframes and the last within `max_gap` [m] of the first.

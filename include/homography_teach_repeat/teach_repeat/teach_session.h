@@ -1,7 +1,9 @@
 // The teach phase without ROS: decides which images become keyframes, stores them (image,
 // features, vertical lines, odometry pose) in a crash-safe route, and at the end estimates the
-// scene planes along the keyframes (docs/math.md §2, plane_estimation.h) with the user-given distance
-// of the first plane, writing them into the route. teach_node is a thin wrapper around this.
+// scene planes along the keyframes (docs/math.md §2, plane_estimation.h) from the odometry (or the
+// user-given distance of the first plane) and measures the match noise of the route's own images
+// (docs/route_format.md, "Measured noise"), writing both into the route. teach_node is a thin
+// wrapper around this.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -15,6 +17,7 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_policy.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 #include "homography_teach_repeat/common/status.h"
@@ -32,9 +35,9 @@ struct TeachOptions {
   KeyframePolicy keyframes;
   double first_plane_distance = 0.0;  // [m], > 0 for plane estimation; 0 skips it
   // Planes from each keyframe pair's homography and the odometry motion (estimatePlanesFromOdometry:
-  // routes past several walls, e.g. round a room) instead of the paper's single plane tracked
-  // from the first keyframe; first_plane_distance is then not needed.
-  bool planes_from_odometry = false;
+  // routes past several walls, e.g. round a room; no tape measure) instead of the paper's single
+  // plane tracked from the first keyframe with first_plane_distance (false).
+  bool planes_from_odometry = true;
   // With planes_from_odometry: estimate each keyframe pair's relative pitch and roll together with
   // its plane (docs/math.md §2.5). For images levelled by one constant mount rotation (no IMU): the
   // body's pitch and roll between two keyframes otherwise read as a wrong plane.
@@ -67,10 +70,11 @@ class TeachSession {
   // different size than the route's; write failures as returned by the route writer.
   Expected<bool> offer(const cv::Mat& image, const Pose2D& odometry_pose, double stamp);
 
-  // Plane estimation over the stored keyframes (needs >= 2 keyframes and
-  // first_plane_distance > 0): the homographies between consecutive keyframes (undistorted
+  // Plane estimation over the stored keyframes (needs >= 2 keyframes, and first_plane_distance > 0
+  // without planes_from_odometry): the homographies between consecutive keyframes (undistorted
   // matches, robust estimator), docs/math.md §2 along the route with the odometry motion breaking the
-  // β ≈ 0 tie; keyframes after a failed pair get no plane. Writes the route index.
+  // β ≈ 0 tie; keyframes after a failed pair get no plane. The same pairs' inlier residuals are the
+  // keyframes' match residuals (matchResidualOf). Writes the route index.
   Expected<PlaneEstimationReport> finish();
 
   const Route& route() const { return writer_->route(); }
@@ -94,5 +98,21 @@ class TeachSession {
   std::vector<ImageFeatures> keyframe_features_;  // kept for the plane estimation
   StoredCounts last_stored_;
 };
+
+// A keyframe pair's match residual (route.h, MatchResidual): the inliers' rms transfer error about
+// their homography [px]; nullopt with fewer than 4 inliers or a non-finite or zero error.
+std::optional<MatchResidual> matchResidualOf(const RegistrationResult& registered);
+
+// Measures a route's match noise from its stored keyframes, as the teach run does (each keyframe's
+// features matched to the next's with `matching` and `robust`, undistorted by the route's camera),
+// and sets it in `route` (keyframes' match_residual, info.match_noise_measured; not written).
+// kInvalidInput for a missing or corrupt features file.
+Status measureMatchNoise(Route& route, const MatchOptions& matching = {}, const RobustHomographyOptions& robust = {});
+
+// Rewrites a route's index in the current format (3): a route of version 1 or 2 keeps its
+// keyframes and experiences and has its match noise measured (measureMatchNoise with the teach
+// defaults). Atomic; the keyframe files are untouched. kInvalidInput naming the file when the
+// route cannot be read, measured or written.
+Status migrateRoute(const std::string& directory);
 
 }  // namespace homography_teach_repeat

@@ -35,6 +35,7 @@
 #include "homography_teach_repeat/sim/world_renderer.h"
 #include "homography_teach_repeat/teach_repeat/experience_learning.h"
 #include "homography_teach_repeat/teach_repeat/repeat_pipeline.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 using namespace homography_teach_repeat;
 

@@ -207,6 +207,7 @@ int main(int argc, char** argv) {
     audit_options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
     // The simulator's exact camera: no common image shift (config/sim_repeat_node.yaml).
     audit_options.repeat.pose.common_shift_sigma_px = 0.0;
+    audit_options.repeat.match_residual_gain = 0.0;  // the pixel σ is --pixel-sigma's
     audit_options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
     audit_options.stretch_noise_gain = args.number("stretch-noise-gain");
     audit_options.match_stretch_decay = args.number("match-stretch-decay");

@@ -96,6 +96,7 @@ cli::Arguments sequenceArguments() {
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
        {"truth-topic", ""}, {"base-frame", "base_link"}, {"plots", "1"},
        {"pixel-sigma", std::to_string(repeat_defaults.pose.pixel_sigma_px)},
+       {"match-residual-gain", std::to_string(repeat_defaults.match_residual_gain)},
        {"plane-normal-sigma", std::to_string(repeat_defaults.pose.plane_normal_sigma_rad)},
        {"plane-distance-sigma", std::to_string(repeat_defaults.pose.plane_distance_sigma)},
        {"tilt-sigma", std::to_string(repeat_defaults.pose.tilt_sigma_rad)},
@@ -106,7 +107,8 @@ cli::Arguments sequenceArguments() {
        {"max-tracked-frames", std::to_string(repeat_defaults.max_tracked_frames)},
        {"background-detection", std::to_string(repeat_defaults.background_detection ? 1 : 0)},
        {"mu-line-landmarks", std::to_string(repeat_defaults.mu_line_landmarks ? 1 : 0)},
-       {"line-min-length", std::to_string(repeat_defaults.lines.min_length_px)}, {"shift-heading", "1"}},
+       {"line-min-length", std::to_string(repeat_defaults.lines.min_length_px)}, {"shift-heading", "1"},
+       {"hybrid-fuse-both", RepeatPipelineOptions().hybrid_fuse_both ? "1" : "0"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
       "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
@@ -116,6 +118,7 @@ cli::Arguments sequenceArguments() {
       "  [--teach-odometry truth|recorded] [--scale-error E] [--heading-bias RAD/M] [--distance-noise M/sqrt(M)]\n"
       "  [--heading-noise RAD/sqrt(M)] [--seed S] (odometry synthesized where the data has none)\n"
       "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
+      "  [--match-residual-gain G] (the covariance's pixel sigma: G x the teach run's match residual; 0: --pixel-sigma)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
       "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
       "  [--background-detection 0|1] (the features of a tracked frame detected on a worker thread meanwhile)\n"
@@ -126,6 +129,7 @@ cli::Arguments sequenceArguments() {
       "  [--mu-line-landmarks 0|1] (mu: each keyframe line triangulated with its own depth, a fix from every line)\n"
       "  [--line-min-length PX] (shortest vertical line kept, teach and repeat)\n"
       "  [--shift-heading 0|1] (hybrid: the seasonal heading fix where no other fix, RepeatPipelineOptions)\n"
+      "  [--hybrid-fuse-both 0|1] (hybrid: the mu fix also beside an accepted Fast-HD pose)\n"
       "  [--plots 0|1]");
 }
 
@@ -159,6 +163,7 @@ int main(int argc, char** argv) {
   options.teach.keyframes.distance = args.number("keyframe-distance");
   options.teach.keyframes.angle = args.number("keyframe-angle");
   options.repeat.localization.pose.pixel_sigma_px = args.number("pixel-sigma");
+  options.repeat.localization.match_residual_gain = args.number("match-residual-gain");
   options.repeat.localization.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
   options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.localization.pose.tilt_sigma_rad = args.number("tilt-sigma");
@@ -168,6 +173,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.max_tracked_frames = args.integer("max-tracked-frames");
   options.repeat.localization.background_detection = args.integer("background-detection") != 0;
   options.repeat.shift_heading = args.integer("shift-heading") != 0;
+  options.repeat.hybrid_fuse_both = args.integer("hybrid-fuse-both") != 0;
   options.repeat.localization.mu_line_landmarks = args.integer("mu-line-landmarks") != 0;
   options.teach.lines.min_length_px = args.integer("line-min-length");
   options.repeat.localization.lines.min_length_px = args.integer("line-min-length");
@@ -256,7 +262,10 @@ int main(int argc, char** argv) {
                         {"camera_mount", teach_sequence.mount_source}};
   document["setup"] = {{"mode", args.text("mode")}, {"level", args.text("level")}, {"scale", options.image_scale},
                        {"keyframes", keyframes}, {"keyframe_distance_m", options.teach.keyframes.distance},
-                       {"pixel_sigma_px", options.repeat.localization.pose.pixel_sigma_px},
+                       {"pixel_sigma_px", withMeasuredNoise(options.repeat.localization, evaluation->route).pose.pixel_sigma_px},
+                       {"pixel_sigma_fallback_px", options.repeat.localization.pose.pixel_sigma_px},
+                       {"match_residual_gain", options.repeat.localization.match_residual_gain},
+                       {"match_residual_px", routeMatchResidual(evaluation->route).value_or(0.0)},
                        {"plane_normal_sigma_rad", options.repeat.localization.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
                        {"tilt_sigma", options.repeat.localization.pose.tilt_sigma_rad},
@@ -269,6 +278,7 @@ int main(int argc, char** argv) {
                        {"plane_sigma_from_neighbours", options.repeat.localization.plane_sigma_from_neighbours},
                        {"max_tracked_frames", options.repeat.localization.max_tracked_frames},
                        {"shift_heading", options.repeat.shift_heading},
+                       {"hybrid_fuse_both", options.repeat.hybrid_fuse_both},
                        {"feature", args.text("feature")}, {"max_features", options.teach.features.max_features},
                        {"planes", options.teach.planes_from_odometry ? "from odometry" : "first plane distance"},
                        {"command", [&] {

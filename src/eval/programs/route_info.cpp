@@ -23,6 +23,7 @@
 #include "homography_teach_repeat/network/route_map.h"
 #include "homography_teach_repeat/teach_repeat/keyframe_shift_heading.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 using namespace homography_teach_repeat;
 
@@ -118,6 +119,7 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                 a.has_plane ? a.plane_distance_m : NAN, seasonal.c_str(), weak.c_str());
   }
   for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
+  std::printf("match noise: %s\n", describeMeasuredNoise(options.repeat, route).c_str());
   std::printf("%d keyframes; weak for fast_hd: %d, for mu: %d\n", static_cast<int>(audit->keyframes.size()),
               audit->weak_for_fast_hd, audit->weak_for_mu);
 
@@ -125,7 +127,11 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
   document["kind"] = "route_audit";
   document["route"] = route.directory;
   document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
-                       {"pixel_sigma", options.repeat.pose.pixel_sigma_px},
+                       {"pixel_sigma", withMeasuredNoise(options.repeat, route).pose.pixel_sigma_px},
+                       {"pixel_sigma_fallback", options.repeat.pose.pixel_sigma_px},
+                       {"match_residual_gain", options.repeat.match_residual_gain},
+                       {"match_residual_px", routeMatchResidual(route).value_or(0.0)},
+                       {"match_noise_measured", route.info.match_noise_measured},
                        {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
                        {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
@@ -139,6 +145,9 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                          {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
   for (const KeyframeAudit& a : audit->keyframes) {
     nlohmann::json k = toJson(a);
+    const auto& measured = route.keyframes[static_cast<std::size_t>(a.keyframe)].match_residual;
+    k["match_residual"] = measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}}
+                                   : nlohmann::json();
     if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
       const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
       k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
@@ -223,6 +232,7 @@ cli::Arguments routeInfoArguments() {
       "route_info",
       {{"route", ""}, {"out", ""}, {"offset", "0.3"}, {"aliasing", "1"}, {"plots", "1"},
        {"pixel-sigma", std::to_string(pose_defaults.pixel_sigma_px)},
+       {"match-residual-gain", std::to_string(repeat_defaults.match_residual_gain)},
        {"plane-normal-sigma", std::to_string(pose_defaults.plane_normal_sigma_rad)},
        {"plane-distance-sigma", std::to_string(pose_defaults.plane_distance_sigma)},
        {"tilt-sigma", std::to_string(pose_defaults.tilt_sigma_rad)}, {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
@@ -234,6 +244,7 @@ cli::Arguments routeInfoArguments() {
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
       "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
+      "  [--match-residual-gain G] (the pixel sigma: G x the route's measured match residual; 0 or none: --pixel-sigma)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
       "  [--heading-sigma RAD] [--common-shift-sigma PX] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance\n"
       "  terms, as repeat_node's parameters; the defaults are its defaults)\n"
@@ -267,6 +278,7 @@ int main(int argc, char** argv) {
   options.probe_offset_m = args.number("offset");
   options.aliasing = args.integer("aliasing") != 0;
   options.repeat.pose.pixel_sigma_px = args.number("pixel-sigma");
+  options.repeat.match_residual_gain = args.number("match-residual-gain");
   options.repeat.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
   options.repeat.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.pose.tilt_sigma_rad = args.number("tilt-sigma");

@@ -108,6 +108,11 @@ void RepeatNode::startRoute(const std::string& directory, const RepeatPipelineOp
   const auto route = loadRoute(directory);
   if (!route) throw std::runtime_error(route.status().message());
   taught_camera_to_level_ = route->info.camera.camera_to_level;
+  if (route->info.match_noise_measured) {
+    ROS_INFO("repeat_node: %s", describeMeasuredNoise(options.localization, *route).c_str());
+  } else {
+    ROS_WARN("repeat_node: %s", describeMeasuredNoise(options.localization, *route).c_str());
+  }
   auto pipeline = RepeatPipeline::create(*route, options);
   if (!pipeline) throw std::runtime_error(directory + ": " + pipeline.status().message());
   route_pipeline_.emplace(std::move(*pipeline));

@@ -33,7 +33,8 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh, bool into_map) {
     options.keyframes.angle = readParameter(nh, "keyframe_angle", options.keyframes.angle);
     options.first_plane_distance =
         readParameter(nh, "first_plane_distance", options.first_plane_distance);
-    options.planes_from_odometry = readParameter(nh, "planes_from_odometry", options.planes_from_odometry);
+    // A tape-measured first plane asks for the paper's single plane; without one, planes from odometry.
+    options.planes_from_odometry = readParameter(nh, "planes_from_odometry", !(options.first_plane_distance > 0.0));
     options.estimate_keyframe_tilt = readParameter(nh, "estimate_keyframe_tilt", options.estimate_keyframe_tilt);
     options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
     options.lines.max_angle_deg =
