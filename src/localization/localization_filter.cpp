@@ -259,8 +259,11 @@ Status LocalizationFilter::correctWithMu(const MuObservation& observation, const
   // ∂μ/∂(x, y, yaw) (only for a confirmed fix).
   const auto jacobian = poseJacobian(estimate_, [&](const Pose2D& pose) { return muAt(observation, pose); });
   if (!jacobian) return jacobian.status();
-  return update(observation.mu - *predicted, *jacobian, std::max(observation.variance, options_.min_mu_variance),
-                "mu fix");
+  // The wall is an estimate too: its uncertainty moves the μ it predicts (docs/math.md §4.11).
+  const auto wall_variance = wallModelVariance(observation, estimate_);
+  if (!wall_variance) return wall_variance.status();
+  return update(observation.mu - *predicted, *jacobian,
+                std::max(observation.variance, options_.min_mu_variance) + *wall_variance, "mu fix");
 }
 
 Status LocalizationFilter::correctHeading(double route_yaw, const Pose2D& odom_pose, double variance) {

@@ -271,7 +271,7 @@ RepeatFrameResult RepeatPipeline::processHybridFrame(double stamp, const cv::Mat
   if (lines != nullptr && (result.fixes.empty() || options_.hybrid_fuse_both)) {
     auto estimate = lines->localize(image, predictedFilterPose(stamp));
     if (!points) result.timing = lines->lastTiming();
-    Status corrected = estimate ? correctMuFilter(stamp, &*estimate) : estimate.status();
+    Status corrected = estimate ? correctMuFilter(stamp, &*estimate, !result.fixes.empty()) : estimate.status();
     // A μ fix refused beside an accepted Fast-HD pose says nothing against that pose.
     if (estimate && (corrected.isOk() || result.fixes.empty())) {
       recordFix(stamp, corrected.isOk(), estimate->inliers);

@@ -10,6 +10,22 @@
 #include <utility>
 
 namespace homography_teach_repeat {
+namespace {
+
+// A keyframe's wall with its own uncertainty: the plane's disagreement with its neighbours as the
+// Fast-HD localizer measured it (KeyframeStore, plane_sigma_from_neighbours; 0 where it did not:
+// mu mode, or the option off). docs/math.md §4.11.
+std::optional<MuObservation> keyframeWall(const RepeatLocalizer& points, const RouteKeyframe& keyframe, int k,
+                                          const Pose2D& camera_mount, double fx) {
+  auto wall = muWallOf(keyframe.pose, keyframe.plane, camera_mount, fx, k);
+  if (wall && k >= 0 && k < points.keyframeCount()) {
+    wall->wall_normal_sigma_rad = points.reference(k).plane_normal_sigma_rad;
+    wall->wall_distance_sigma = points.reference(k).plane_distance_sigma;
+  }
+  return wall;
+}
+
+}  // namespace
 
 Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom_near_image,
                                       const Expected<RepeatEstimate>& estimate, RepeatFrameResult* result) {
@@ -83,7 +99,7 @@ Status RepeatPipeline::gate(const Expected<Pose2D>& odom, const RepeatEstimate& 
   return odometry_gate_->check(estimate.base_pose, *odom);
 }
 
-Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix) {
+Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix, bool beside_pose) {
   const RepeatEstimate& estimate = *fix;
   const auto odom = odometry_.poseNear(stamp, kOdometryLag);
   if (!odom) {
@@ -117,12 +133,18 @@ Status RepeatPipeline::correctMuFilter(double stamp, RepeatEstimate* fix) {
   }
   // A keyframe with a known wall gives the full μ model (heading and lateral offset); a keyframe
   // without a plane gives a heading-only fix.
-  auto wall = muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, lines.camera().fx(), estimate.keyframe);
+  auto wall = keyframeWall(localizer_, keyframe, estimate.keyframe, route.info.camera_mount, lines.camera().fx());
   Status corrected;
   if (wall) {
     wall->mu = estimate.mu;
     wall->variance = 0.0;  // the filter's min_mu_variance
     corrected = filter_.correctWithMu(*wall, *odom);
+  } else if (beside_pose) {
+    // μ as a heading alone reads a lateral offset as a turn (5-9° for 15 cm near a wall, §4.5);
+    // beside a Fast-HD pose, which measures the heading with the offset, it only adds that error
+    // (KITTI 07's corners, where the keyframes see the road: up to 1 m and 1.8° off, docs/math.md §7.1).
+    return Status(StatusCode::kNoConsensus, "keyframe " + std::to_string(estimate.keyframe) +
+                                                " has no wall: its heading-only mu fix is not taken beside a Fast-HD pose");
   } else {
     corrected = filter_.correctHeading(route_yaw, *odom);
   }
@@ -170,7 +192,7 @@ Status RepeatPipeline::correctWithShiftHeading(double stamp, const cv::Mat& imag
   // (docs/math.md §4.5), up to the coupling to a lateral offset that the wall model holds. An
   // experience (a learned view) has no wall of its own: a heading fix, with its yaw's variance.
   const double route_yaw = wrapToPi(view->view_pose.yaw + std::atan(fix->mu / fx));
-  auto wall = view->experience == 0 ? muWallOf(keyframe.pose, keyframe.plane, route.info.camera_mount, fx, k)
+  auto wall = view->experience == 0 ? keyframeWall(localizer_, keyframe, k, route.info.camera_mount, fx)
                                     : std::nullopt;
   if (fix->ambiguous) {
     // Two shifts compete (repeated structure, a near object's parallax): taken only where the

@@ -21,16 +21,21 @@ namespace {
 using test_support::makeTemporaryDirectory;
 using test_support::SyntheticWall;
 CameraCalibration calibration() { return test_support::syntheticCalibration(); }
+// AKAZE, a keyframe every 0.25 m, into `dir`; the rest at the defaults.
+TeachOptions wallTeachOptions(const std::string& dir) {
+  TeachOptions options;
+  options.route_directory = dir;
+  options.features.type = FeatureType::kAkaze;
+  options.keyframes.distance = 0.25;
+  return options;
+}
 }  // namespace
 
 // Six keyframes along a gently turning path towards the wall; the planes estimated at the end
 // agree with the truth propagated to every keyframe (docs/math.md §2.2).
 TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
   const std::string dir = makeTemporaryDirectory("htr_teach_test");
-  TeachOptions options;
-  options.route_directory = dir;
-  options.features.type = FeatureType::kAkaze;
-  options.keyframes.distance = 0.25;
+  TeachOptions options = wallTeachOptions(dir);
   options.first_plane_distance = 4.0;
   options.planes_from_odometry = false;  // the paper's single plane with the tape-measured scale
   auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
@@ -76,10 +81,7 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
 // or on a route that was not measured the configured one, and the log line says which.
 TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   const std::string dir = makeTemporaryDirectory("htr_teach_noise");
-  TeachOptions options;
-  options.route_directory = dir;
-  options.features.type = FeatureType::kAkaze;
-  options.keyframes.distance = 0.25;
+  const TeachOptions options = wallTeachOptions(dir);
   EXPECT_TRUE(options.planes_from_odometry);  // no tape measure by default
   auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
   ASSERT_TRUE(session.isOk()) << session.status().toString();

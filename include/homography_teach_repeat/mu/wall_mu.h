@@ -28,6 +28,12 @@ struct MuObservation {
   // mu/shift_heading.h) and is taken without the previous frame's confirmation
   // (LocalizationFilterOptions::max_mu_step_px); the innovation gate still applies.
   bool needs_confirmation = true;
+  // How uncertain the wall itself is (KeyframeReference's plane_normal_sigma_rad and
+  // plane_distance_sigma, measured from the neighbouring keyframes' planes, docs/math.md §3.6):
+  // the std of its normal's direction [rad, >= 0] and of its distance [fraction, >= 0]. The μ
+  // the wall predicts is then uncertain too (wallModelVariance, §4.11).
+  double wall_normal_sigma_rad = 0.0;
+  double wall_distance_sigma = 0.0;
 };
 
 // The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its
@@ -39,5 +45,11 @@ std::optional<MuObservation> muWallOf(const Pose2D& reference_pose, const std::o
 // camera of a robot at `base` (route frame), docs/math.md §4.4 (planeHomography1d); its h12/h22 is the
 // μ the filter predicts, and it tells the line matcher where the reference lines should be.
 Expected<Eigen::Matrix2d> wallHomography1dAt(const MuObservation& wall, const Pose2D& base);
+// The variance [px²] the wall's own uncertainty adds to the μ it predicts for a robot at `base`:
+// (∂μ/∂φ · σφ)² + (∂μ/∂d · d σd)², φ the direction of the wall's normal in the reference camera's
+// (x, z) plane, the derivatives by central differences (docs/math.md §4.11). 0 when both sigmas
+// are 0; kInvalidInput for a negative or non-finite sigma; kDegenerate where a perturbed wall is
+// not in front of both cameras.
+Expected<double> wallModelVariance(const MuObservation& wall, const Pose2D& base);
 
 }  // namespace homography_teach_repeat

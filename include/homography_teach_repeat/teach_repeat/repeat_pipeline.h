@@ -183,7 +183,9 @@ class RepeatPipeline {
   Status gate(const Expected<Pose2D>& odom, const RepeatEstimate& estimate, std::string* warning);
   // mu: the filter at `stamp` corrected by the estimate's μ.
   // (`fix`: its keyframe and inliers become those of the line landmark fix taken.)
-  Status correctMuFilter(double stamp, RepeatEstimate* fix);
+  // `beside_pose`: a Fast-HD pose was taken in this frame; a μ fix is then taken only through the
+  // keyframe's wall, never as a heading alone (docs/math.md §7.1).
+  Status correctMuFilter(double stamp, RepeatEstimate* fix, bool beside_pose = false);
   // hybrid, a frame without another fix: the seasonal heading fix into the filter (the reason
   // when none was taken).
   Status correctWithShiftHeading(double stamp, const cv::Mat& image, RepeatFrameResult* result);
