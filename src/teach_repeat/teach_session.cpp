@@ -183,7 +183,7 @@ Status migrateRoute(const std::string& directory) {
   auto route = loadRoute(directory);
   if (!route) return route.status();
   if (!route->info.match_noise_measured) {
-    const Status measured = measureMatchNoise(*route);
+    Status measured = measureMatchNoise(*route);
     if (!measured.isOk()) return measured;
   }
   return writeRouteIndex(*route);
