@@ -128,6 +128,13 @@ TEST(TeachNode, RecordsKeyframesAndPlanes) {
   ASSERT_TRUE(route->keyframes.front().plane.has_value());
   EXPECT_LT((route->keyframes.front().plane->normal - wall.normal).norm(), 0.03);
   EXPECT_NEAR(route->keyframes.front().plane->distance, 4.0, 1e-9);
+  // ~finish measured the route's match noise (docs/route_format.md, "Measured noise"): the
+  // synthetic wall's exact warps match to a fraction of a pixel.
+  EXPECT_TRUE(route->info.match_noise_measured);
+  const auto residual = routeMatchResidual(*route);
+  ASSERT_TRUE(residual.has_value());
+  EXPECT_GT(*residual, 0.0);
+  EXPECT_LT(*residual, 1.0);
 }
 
 int main(int argc, char** argv) {
