@@ -130,7 +130,7 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     }
     pairs.push_back(pair);
   }
-  const Status measured = writer_->setMatchResiduals(residuals);
+  const Status measured = writer_->setMatchResiduals(residuals);  // written with the planes below
   if (!measured.isOk()) return measured;
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;

@@ -130,7 +130,8 @@ class RouteWriter {
                      const std::vector<VerticalLine>& lines, const Pose2D& pose, double stamp);
 
   // Sets each keyframe's match residual (size must match; finite rms > 0 and >= 4 inliers where
-  // present) and marks the route's noise measured; rewrites the index.
+  // present) and marks the route's noise measured; written with the next index write (setPlanes,
+  // addKeyframe), so the teach run's ~finish writes its index once.
   Status setMatchResiduals(const std::vector<std::optional<MatchResidual>>& residuals);
 
   // Sets the plane of each keyframe (size must match) and the scale; rewrites the index.
