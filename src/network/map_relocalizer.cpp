@@ -110,8 +110,9 @@ MapRelocalizer::MapRelocalizer(std::shared_ptr<const RouteMap> map, std::optiona
   for (const MapRoute& r : map_->routes) {
     std::vector<Pose2D> poses;
     for (const RouteKeyframe& k : r.route.keyframes) poses.push_back(k.pose);
+    // Each route's own measured pixel noise and tilt (a map may join routes of several cameras).
     const EstimatorContext context{PinholeCamera(r.route.info.camera), r.route.info.feature_type,
-                                   r.route.info.camera_mount, poses, fast_hd};
+                                   r.route.info.camera_mount, poses, withMeasuredNoise(fast_hd, r.route)};
     estimators_[r.name] = makeKeyframeEstimator(context);
   }
 }

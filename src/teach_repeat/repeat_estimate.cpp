@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
+#include <string>
 
 namespace homography_teach_repeat {
 
@@ -53,6 +55,9 @@ void RepeatOptions::validate() const {
   if (!(match_residual_gain >= 0.0 && match_residual_gain <= 10.0)) {
     throw std::invalid_argument("match_residual_gain must be in [0, 10]");
   }
+  if (!(measured_tilt_gain >= 0.0 && measured_tilt_gain <= 10.0)) {
+    throw std::invalid_argument("measured_tilt_gain must be in [0, 10]");
+  }
   line_landmarks.validate();
   if (!(mu_max_reference_angle > 0.0 && mu_max_reference_angle <= M_PI)) {
     throw std::invalid_argument("mu_max_reference_angle must be in (0, pi]");
@@ -62,26 +67,45 @@ void RepeatOptions::validate() const {
 RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route) {
   const std::optional<double> residual = routeMatchResidual(route);
   if (residual && options.match_residual_gain > 0.0) options.pose.pixel_sigma_px = options.match_residual_gain * *residual;
+  const std::optional<double> tilt = routeTiltSigma(route);
+  if (tilt && options.measured_tilt_gain > 0.0) options.pose.tilt_sigma_rad = options.measured_tilt_gain * *tilt;
   return options;
 }
 
-std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route) {
+namespace {
+// "<what> <value>: <gain name> <gain> x the route's <measurement>" and the fallbacks' wording.
+std::string describeOne(const char* what, double used, const char* unit, const char* gain_name, double gain,
+                        const std::optional<double>& measured, const char* measurement, bool was_measured,
+                        const char* configured_name) {
   char text[320];
-  const std::optional<double> residual = routeMatchResidual(route);
-  const double sigma = withMeasuredNoise(options, route).pose.pixel_sigma_px;
-  if (residual && options.match_residual_gain > 0.0) {
-    std::snprintf(text, sizeof(text), "pixel sigma %.3f px: match_residual_gain %.2f x the route's match residual %.3f px",
-                  sigma, options.match_residual_gain, *residual);
-  } else if (residual) {
-    std::snprintf(text, sizeof(text), "pixel sigma %.3f px from pixel_sigma (match_residual_gain 0; the route's match "
-                  "residual is %.3f px)", sigma, *residual);
-  } else if (route.info.match_noise_measured) {
-    std::snprintf(text, sizeof(text), "pixel sigma %.3f px from pixel_sigma: no keyframe pair of the route registered "
-                  "to measure its match residual", sigma);
+  if (measured && gain > 0.0) {
+    std::snprintf(text, sizeof(text), "%s %.4g %s: %s %.2f x the route's %s %.4g %s", what, used, unit, gain_name,
+                  gain, measurement, *measured, unit);
+  } else if (measured) {
+    std::snprintf(text, sizeof(text), "%s %.4g %s from %s (%s 0; the route's %s is %.4g %s)", what, used, unit,
+                  configured_name, gain_name, measurement, *measured, unit);
+  } else if (was_measured) {
+    std::snprintf(text, sizeof(text), "%s %.4g %s from %s: no keyframe pair of the route showed its %s", what, used,
+                  unit, configured_name, measurement);
   } else {
-    std::snprintf(text, sizeof(text), "pixel sigma %.3f px from pixel_sigma: the route (format %d) has no measured match "
-                  "noise; 'rosrun homography_teach_repeat route_info --migrate %s' measures it",
-                  sigma, route.loaded_format_version, route.directory.c_str());
+    std::snprintf(text, sizeof(text), "%s %.4g %s from %s: the route has no measured %s", what, used, unit,
+                  configured_name, measurement);
+  }
+  return text;
+}
+}  // namespace
+
+std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route) {
+  const RepeatOptions used = withMeasuredNoise(options, route);
+  std::string text = describeOne("pixel sigma", used.pose.pixel_sigma_px, "px", "match_residual_gain",
+                                 options.match_residual_gain, routeMatchResidual(route), "match residual",
+                                 route.info.match_noise_measured, "pixel_sigma");
+  text += "; " + describeOne("tilt sigma", used.pose.tilt_sigma_rad, "rad", "measured_tilt_gain",
+                             options.measured_tilt_gain, routeTiltSigma(route), "tilt", route.info.tilt_measured,
+                             "tilt_sigma");
+  if (!route.info.match_noise_measured || !route.info.tilt_measured) {
+    text += " (format " + std::to_string(route.loaded_format_version) +
+            "; 'rosrun homography_teach_repeat route_info --migrate " + route.directory + "' measures it)";
   }
   return text;
 }

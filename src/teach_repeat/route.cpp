@@ -10,13 +10,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <iomanip>
-#include <sstream>
 
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/teach_repeat/route_files.h"
 
 namespace homography_teach_repeat {
+using route_files::keyframeStem;
 using route_files::Reader;
 using route_files::writeFeaturesFile;
 using route_files::writeImageFile;
@@ -53,12 +52,6 @@ Status refuseExistingRoute(const std::string& directory, bool overwrite) {
                   "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
   }
   return Status::ok();
-}
-
-std::string keyframeStem(int index) {
-  std::ostringstream s;
-  s << "keyframes/" << std::setw(6) << std::setfill('0') << index;
-  return s.str();
 }
 
 void emitPose(YAML::Emitter& out, const Pose2D& pose) {
@@ -171,18 +164,27 @@ Status RouteWriter::setPlanes(const std::vector<std::optional<ScenePlane>>& plan
   return writeIndex();
 }
 
-Status RouteWriter::setMatchResiduals(const std::vector<std::optional<MatchResidual>>& residuals) {
-  if (residuals.size() != route_.keyframes.size()) {
-    return Status(StatusCode::kInvalidInput, "one match residual (or none) per keyframe is needed");
+Status RouteWriter::setMeasuredNoise(const std::vector<std::optional<MatchResidual>>& residuals,
+                                     const std::vector<std::optional<PairTilt>>& tilts) {
+  if (residuals.size() != route_.keyframes.size() || tilts.size() != route_.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "one match residual and one tilt (or none) per keyframe are needed");
   }
   for (std::size_t k = 0; k < residuals.size(); ++k) {
     if (residuals[k] && !(std::isfinite(residuals[k]->rms_px) && residuals[k]->rms_px > 0.0 && residuals[k]->inliers >= 4)) {
       return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(k) +
                                                    ": match residual must be finite and > 0 with >= 4 inliers");
     }
+    if (tilts[k] && !(std::abs(tilts[k]->pitch) <= kMaxPairTilt && std::abs(tilts[k]->roll) <= kMaxPairTilt)) {
+      return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(k) +
+                                                   ": tilt to the next keyframe must be finite and within 0.1 rad");
+    }
   }
-  for (std::size_t k = 0; k < residuals.size(); ++k) route_.keyframes[k].match_residual = residuals[k];
+  for (std::size_t k = 0; k < residuals.size(); ++k) {
+    route_.keyframes[k].match_residual = residuals[k];
+    route_.keyframes[k].tilt_to_next = tilts[k];
+  }
   route_.info.match_noise_measured = true;
+  route_.info.tilt_measured = true;
   return Status::ok();
 }
 
@@ -198,6 +200,20 @@ std::optional<double> routeMatchResidual(const Route& route) {
   const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
   std::nth_element(values.begin(), middle, values.end());
   return *middle;
+}
+
+std::optional<double> routeTiltSigma(const Route& route) {
+  if (!route.info.tilt_measured) return std::nullopt;
+  std::vector<double> magnitudes;
+  for (const RouteKeyframe& k : route.keyframes) {
+    if (!k.tilt_to_next) continue;
+    magnitudes.push_back(std::abs(k.tilt_to_next->pitch));
+    magnitudes.push_back(std::abs(k.tilt_to_next->roll));
+  }
+  if (magnitudes.empty()) return std::nullopt;
+  const auto middle = magnitudes.begin() + static_cast<std::ptrdiff_t>(magnitudes.size() / 2);
+  std::nth_element(magnitudes.begin(), middle, magnitudes.end());
+  return 1.4826 * *middle;  // the median of |x| is 0.6745 σ for a zero-mean normal x
 }
 
 Status writeRouteIndex(const Route& route) {
@@ -228,7 +244,9 @@ Status writeRouteIndex(const Route& route) {
   if (info.match_noise_measured) {
     // For the reader; loading takes the keyframes' values (routeMatchResidual), 0: none measured.
     out << YAML::Key << "measured_noise" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-        << "match_residual_px" << YAML::Value << routeMatchResidual(route).value_or(0.0) << YAML::EndMap;
+        << "match_residual_px" << YAML::Value << routeMatchResidual(route).value_or(0.0);
+    if (info.tilt_measured) out << YAML::Key << "tilt_rad" << YAML::Value << routeTiltSigma(route).value_or(0.0);
+    out << YAML::EndMap;
   }
   out << YAML::Key << "keyframes" << YAML::Value << YAML::BeginSeq;
   for (const auto& k : route.keyframes) {
@@ -250,6 +268,11 @@ Status writeRouteIndex(const Route& route) {
       out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
           << YAML::Value << k.match_residual->rms_px << YAML::Key << "inliers" << YAML::Value
           << k.match_residual->inliers << YAML::EndMap;
+    }
+    if (k.tilt_to_next) {
+      out << YAML::Key << "tilt_to_next" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "pitch"
+          << YAML::Value << k.tilt_to_next->pitch << YAML::Key << "roll" << YAML::Value << k.tilt_to_next->roll
+          << YAML::EndMap;
     }
     if (!k.experiences.empty()) {
       out << YAML::Key << "experiences" << YAML::Value << YAML::BeginSeq;
@@ -339,6 +362,11 @@ Expected<Route> loadRoute(const std::string& directory) {
       const double residual = reader.finite(measured, "match_residual_px");
       if (residual < 0.0) throw reader.error(measured, "match_residual_px must be >= 0");
       route.info.match_noise_measured = true;
+      if (measured["tilt_rad"]) {
+        if (version < 4) throw reader.error(measured, "'measured_noise: tilt_rad' needs format_version 4");
+        if (reader.finite(measured, "tilt_rad") < 0.0) throw reader.error(measured, "tilt_rad must be >= 0");
+        route.info.tilt_measured = true;
+      }
     }
     const YAML::Node keyframes = root["keyframes"];
     if (!keyframes || !keyframes.IsSequence()) throw reader.error(root, "missing list 'keyframes'");
@@ -382,6 +410,16 @@ Expected<Route> loadRoute(const std::string& directory) {
         if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
         k.match_residual = measured;
       }
+      if (const YAML::Node tilt = node["tilt_to_next"]) {
+        const std::string name = "keyframe " + std::to_string(k.index) + ": tilt_to_next";
+        if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
+        if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
+        const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
+        if (!(std::abs(measured.pitch) <= kMaxPairTilt && std::abs(measured.roll) <= kMaxPairTilt)) {
+          throw reader.error(tilt, name + " must be finite and within 0.1 rad");
+        }
+        k.tilt_to_next = measured;
+      }
       if (const YAML::Node experiences = node["experiences"]) {
         if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
         if (!experiences.IsSequence()) throw reader.error(experiences, "'experiences' must be a list");
@@ -415,54 +453,6 @@ Expected<Route> loadRoute(const std::string& directory) {
     return Status(StatusCode::kInvalidInput, e.what());
   }
   return route;
-}
-
-Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, const ImageFeatures& features,
-                     const Pose2D& pose, const Eigen::Matrix3d& pose_covariance, double stamp, int max_experiences) {
-  if (keyframe >= route.keyframes.size()) {
-    return Status(StatusCode::kInvalidInput, "experience for keyframe " + std::to_string(keyframe) +
-                                                 ", the route has " + std::to_string(route.keyframes.size()));
-  }
-  if (image.empty()) return Status(StatusCode::kInvalidInput, "experience image is empty");
-  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) || !std::isfinite(stamp) ||
-      !pose_covariance.allFinite()) {
-    return Status(StatusCode::kInvalidInput, "experience pose, covariance or stamp is not finite");
-  }
-  if (max_experiences < 1) return Status(StatusCode::kInvalidInput, "max_experiences must be >= 1");
-  if (features.type != route.info.feature_type) {
-    return Status(StatusCode::kInvalidInput, "experience features are " + toString(features.type) + ", the route's " +
-                                                 toString(route.info.feature_type));
-  }
-  RouteKeyframe& k = route.keyframes[keyframe];
-  RouteExperience experience;
-  for (const RouteExperience& e : k.experiences) experience.id = std::max(experience.id, e.id + 1);
-  experience.stamp = stamp;
-  experience.pose = pose;
-  experience.pose_covariance = pose_covariance;
-  const std::string stem = keyframeStem(k.index) + ".e" + std::to_string(experience.id);
-  experience.image_file = stem + ".png";
-  experience.features_file = stem + ".features.yml";
-  Status status = writeImageFile(route.directory + "/" + experience.image_file, image);
-  if (status.isOk()) status = writeFeaturesFile(route.directory + "/" + experience.features_file, features);
-  if (!status.isOk()) return status;
-  const std::vector<RouteExperience> before = k.experiences;
-  k.experiences.push_back(experience);
-  std::vector<RouteExperience> dropped;
-  while (static_cast<int>(k.experiences.size()) > max_experiences) {
-    dropped.push_back(k.experiences.front());
-    k.experiences.erase(k.experiences.begin());
-  }
-  status = writeRouteIndex(route);
-  if (!status.isOk()) {
-    k.experiences = before;
-    return status;
-  }
-  // The index no longer lists them: a crash before this leaves only unlisted files behind.
-  for (const RouteExperience& e : dropped) {
-    std::remove((route.directory + "/" + e.image_file).c_str());
-    std::remove((route.directory + "/" + e.features_file).c_str());
-  }
-  return Status::ok();
 }
 
 }  // namespace homography_teach_repeat

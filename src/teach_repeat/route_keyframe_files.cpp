@@ -1,5 +1,6 @@
 // The files of one keyframe (docs/route_format.md): its image, its features (and those of its
-// learned views) and its vertical lines, read and written; route.cpp has the route's index.
+// learned views, addExperience) and its vertical lines, read and written; route.cpp has the
+// route's index.
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 #include <yaml-cpp/yaml.h>
@@ -7,6 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <cstdio>
+#include <iomanip>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +19,12 @@
 
 namespace homography_teach_repeat {
 namespace route_files {
+
+std::string keyframeStem(int index) {
+  std::ostringstream s;
+  s << "keyframes/" << std::setw(6) << std::setfill('0') << index;
+  return s.str();
+}
 
 Status writeImageFile(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
@@ -32,8 +42,10 @@ Status writeFeaturesFile(const std::string& path, const ImageFeatures& features)
 
 }  // namespace route_files
 
+using route_files::keyframeStem;
 using route_files::Reader;
 using route_files::writeFeaturesFile;
+using route_files::writeImageFile;
 
 namespace {
 Status checkKeyframe(const Route& route, std::size_t keyframe) {
@@ -145,6 +157,54 @@ Expected<std::vector<VerticalLine>> loadKeyframeLines(const Route& route, std::s
     return Status(StatusCode::kInvalidInput, e.what());
   }
   return lines;
+}
+
+Status addExperience(Route& route, std::size_t keyframe, const cv::Mat& image, const ImageFeatures& features,
+                     const Pose2D& pose, const Eigen::Matrix3d& pose_covariance, double stamp, int max_experiences) {
+  if (keyframe >= route.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "experience for keyframe " + std::to_string(keyframe) +
+                                                 ", the route has " + std::to_string(route.keyframes.size()));
+  }
+  if (image.empty()) return Status(StatusCode::kInvalidInput, "experience image is empty");
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) || !std::isfinite(stamp) ||
+      !pose_covariance.allFinite()) {
+    return Status(StatusCode::kInvalidInput, "experience pose, covariance or stamp is not finite");
+  }
+  if (max_experiences < 1) return Status(StatusCode::kInvalidInput, "max_experiences must be >= 1");
+  if (features.type != route.info.feature_type) {
+    return Status(StatusCode::kInvalidInput, "experience features are " + toString(features.type) + ", the route's " +
+                                                 toString(route.info.feature_type));
+  }
+  RouteKeyframe& k = route.keyframes[keyframe];
+  RouteExperience experience;
+  for (const RouteExperience& e : k.experiences) experience.id = std::max(experience.id, e.id + 1);
+  experience.stamp = stamp;
+  experience.pose = pose;
+  experience.pose_covariance = pose_covariance;
+  const std::string stem = keyframeStem(k.index) + ".e" + std::to_string(experience.id);
+  experience.image_file = stem + ".png";
+  experience.features_file = stem + ".features.yml";
+  Status status = writeImageFile(route.directory + "/" + experience.image_file, image);
+  if (status.isOk()) status = writeFeaturesFile(route.directory + "/" + experience.features_file, features);
+  if (!status.isOk()) return status;
+  const std::vector<RouteExperience> before = k.experiences;
+  k.experiences.push_back(experience);
+  std::vector<RouteExperience> dropped;
+  while (static_cast<int>(k.experiences.size()) > max_experiences) {
+    dropped.push_back(k.experiences.front());
+    k.experiences.erase(k.experiences.begin());
+  }
+  status = writeRouteIndex(route);
+  if (!status.isOk()) {
+    k.experiences = before;
+    return status;
+  }
+  // The index no longer lists them: a crash before this leaves only unlisted files behind.
+  for (const RouteExperience& e : dropped) {
+    std::remove((route.directory + "/" + e.image_file).c_str());
+    std::remove((route.directory + "/" + e.features_file).c_str());
+  }
+  return Status::ok();
 }
 
 }  // namespace homography_teach_repeat

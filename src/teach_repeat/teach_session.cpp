@@ -109,14 +109,18 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   // Consecutive pairs until the first failure: the propagation (docs/math.md §2.2) needs every link.
   std::vector<ReferencePair> pairs;
   std::vector<std::optional<MatchResidual>> residuals(route.keyframes.size());
+  std::vector<std::optional<PairTilt>> tilts(route.keyframes.size());
   for (std::size_t k = 0; k + 1 < route.keyframes.size(); ++k) {
     const auto registered = registerFeatures(keyframe_features_[k], keyframe_features_[k + 1], options_.matching,
                                              options_.robust, &camera_);
-    if (registered) residuals[k] = matchResidualOf(*registered);
     ReferencePair pair;
     pair.has_odometry = true;
     pair.odometry_motion =
         mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
+    if (registered) {
+      residuals[k] = matchResidualOf(*registered);
+      tilts[k] = pairTiltOf(*registered, camera_, pair.odometry_motion);
+    }
     if (!registered) {
       report.messages.push_back("pair " + std::to_string(k) + ": " + registered.status().toString());
       if (!options_.planes_from_odometry) break;
@@ -130,7 +134,7 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     }
     pairs.push_back(pair);
   }
-  const Status measured = writer_->setMatchResiduals(residuals);  // written with the planes below
+  const Status measured = writer_->setMeasuredNoise(residuals, tilts);  // written with the planes below
   if (!measured.isOk()) return measured;
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;
@@ -162,28 +166,52 @@ std::optional<MatchResidual> matchResidualOf(const RegistrationResult& registere
   return residual;
 }
 
-Status measureMatchNoise(Route& route, const MatchOptions& matching, const RobustHomographyOptions& robust) {
+std::optional<PairTilt> pairTiltOf(const RegistrationResult& registered, const PinholeCamera& camera,
+                                   const PlanarPose& camera_motion) {
+  if (registered.homography.inliers.size() < 4) return std::nullopt;
+  const OdometryPlaneOptions plausible;  // the plane estimation's limits (baseline, distance)
+  const auto estimated = planeAndTiltFromHomographyAndMotion(registered.homography.H, camera, camera_motion,
+                                                             plausible.min_baseline, kMaxPairTilt);
+  // A pair that shows no wall in front (a floor, the plane behind or too far) says nothing of the tilt.
+  if (!estimated || !estimated->plane.validate().isOk() || !(estimated->plane.normal.z() > 0.0) ||
+      !(estimated->plane.distance < plausible.max_distance)) {
+    return std::nullopt;
+  }
+  return PairTilt{estimated->pitch, estimated->roll};
+}
+
+Status measureRouteNoise(Route& route, const MatchOptions& matching, const RobustHomographyOptions& robust) {
   const PinholeCamera camera(route.info.camera);
-  for (RouteKeyframe& keyframe : route.keyframes) keyframe.match_residual.reset();
+  const CameraMount mount(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw);
+  for (RouteKeyframe& keyframe : route.keyframes) {
+    keyframe.match_residual.reset();
+    keyframe.tilt_to_next.reset();
+  }
   ImageFeatures current;
   for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
     auto loaded = loadKeyframeFeatures(route, k);
     if (!loaded) return loaded.status();
     if (k > 0) {
       const auto registered = registerFeatures(current, *loaded, matching, robust, &camera);
-      if (registered) route.keyframes[k - 1].match_residual = matchResidualOf(*registered);
+      RouteKeyframe& previous = route.keyframes[k - 1];
+      if (registered) {
+        previous.match_residual = matchResidualOf(*registered);
+        previous.tilt_to_next = pairTiltOf(
+            *registered, camera, mount.baseToCamera(previous.pose.inverse().compose(route.keyframes[k].pose)));
+      }
     }
     current = std::move(*loaded);
   }
   route.info.match_noise_measured = true;
+  route.info.tilt_measured = true;
   return Status::ok();
 }
 
 Status migrateRoute(const std::string& directory) {
   auto route = loadRoute(directory);
   if (!route) return route.status();
-  if (!route->info.match_noise_measured) {
-    Status measured = measureMatchNoise(*route);
+  if (!route->info.match_noise_measured || !route->info.tilt_measured) {
+    Status measured = measureRouteNoise(*route);
     if (!measured.isOk()) return measured;
   }
   return writeRouteIndex(*route);

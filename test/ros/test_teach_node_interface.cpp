@@ -135,6 +135,9 @@ TEST(TeachNode, RecordsKeyframesAndPlanes) {
   ASSERT_TRUE(residual.has_value());
   EXPECT_GT(*residual, 0.0);
   EXPECT_LT(*residual, 1.0);
+  // ... and the camera's tilt between keyframes: the level camera's is what the estimate leaves.
+  EXPECT_TRUE(route->info.tilt_measured);
+  EXPECT_LT(routeTiltSigma(*route).value_or(0.0), 0.01);
 }
 
 int main(int argc, char** argv) {

@@ -161,7 +161,7 @@ TEST(Route, CorruptOrMissingFilesNameTheFile) {
       << truncated.status().message();
   // Unknown version.
   std::string newer = *index;
-  newer.replace(newer.find("format_version: 3"), 17, "format_version: 7");
+  newer.replace(newer.find("format_version: 4"), 17, "format_version: 7");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", newer).isOk());
   auto version = loadRoute(dir);
   EXPECT_NE(version.status().message().find("unknown format_version 7"), std::string::npos);
@@ -285,29 +285,31 @@ TEST(Route, KeepsTheLevellingOfATiltedMount) {
   EXPECT_NE(bad.status().message().find("camera_to_level"), std::string::npos) << bad.status().message();
 }
 
-// Versions 1 (before experiences) and 2 (before the measured noise) are read as they are and
-// rewritten as version 3 by migrateRoute, keyframes unchanged and the match noise measured;
-// experiences in a version-1 index and measured values in a version-2 index are refused naming the
-// field.
+// Versions 1 (before experiences), 2 (before the measured noise) and 3 (before the measured tilt)
+// are read as they are and rewritten as the current version by migrateRoute, keyframes unchanged and
+// the match noise and tilt measured.
 TEST(Route, MigratesOlderRoutesMeasuringTheirNoise) {
-  for (const char* version : {"1", "2"}) {
+  for (const char* version : {"1", "2", "3"}) {
     const std::string dir = temporaryDirectory();
     writeRoute(dir, 3);
     auto index = readWholeFile(dir + "/route.yaml");
     ASSERT_TRUE(index.isOk());
     std::string old = *index;
-    old.replace(old.find("format_version: 3"), 17, std::string("format_version: ") + version);
+    old.replace(old.find("format_version: 4"), 17, std::string("format_version: ") + version);
     ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", old).isOk());
     const auto before = loadRoute(dir);
     ASSERT_TRUE(before.isOk()) << before.status().toString();
     EXPECT_EQ(before->loaded_format_version, std::atoi(version));
     EXPECT_FALSE(before->info.match_noise_measured);
+    EXPECT_FALSE(before->info.tilt_measured);
     EXPECT_FALSE(routeMatchResidual(*before).has_value());
+    EXPECT_FALSE(routeTiltSigma(*before).has_value());
     ASSERT_TRUE(migrateRoute(dir).isOk());
     const auto after = loadRoute(dir);
     ASSERT_TRUE(after.isOk()) << after.status().toString();
     EXPECT_EQ(after->loaded_format_version, kRouteFormatVersion);
     EXPECT_TRUE(after->info.match_noise_measured);
+    EXPECT_TRUE(after->info.tilt_measured);
     ASSERT_EQ(after->keyframes.size(), 3u);
     EXPECT_DOUBLE_EQ(after->keyframes[2].pose.x, before->keyframes[2].pose.x);
     EXPECT_EQ(after->keyframes[1].features_file, before->keyframes[1].features_file);
@@ -354,10 +356,69 @@ TEST(Route, MeasuredMatchNoiseIsKeptAndValidated) {
   auto writer = RouteWriter::create(temporaryDirectory(), info);
   ASSERT_TRUE(writer.isOk());
   ASSERT_TRUE(writer->addKeyframe(image(1), features(3), {}, Pose2D(0, 0, 0), 1.0).isOk());
-  EXPECT_FALSE(writer->setMatchResiduals({MatchResidual{std::nan(""), 10}}).isOk());
-  EXPECT_FALSE(writer->setMatchResiduals({MatchResidual{0.3, 3}}).isOk());
-  EXPECT_FALSE(writer->setMatchResiduals({}).isOk());
-  EXPECT_TRUE(writer->setMatchResiduals({MatchResidual{0.3, 10}}).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({MatchResidual{std::nan(""), 10}}, {std::nullopt}).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({MatchResidual{0.3, 3}}, {std::nullopt}).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({}, {}).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({MatchResidual{0.3, 10}}, {}).isOk());
+  EXPECT_TRUE(writer->setMeasuredNoise({MatchResidual{0.3, 10}}, {std::nullopt}).isOk());
+}
+
+// The measured tilt round-trips; the route's tilt σ is the robust std of the pairs' pitch and roll
+// (1.4826 × the median magnitude: one pair at a corner far off does not move it); a tilt that is
+// not finite or beyond kMaxPairTilt is refused on load naming the keyframe, and by the writer; a
+// version-3 index with a measured tilt is refused.
+TEST(Route, MeasuredTiltIsKeptAndValidated) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 4);
+  auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk());
+  EXPECT_FALSE(routeTiltSigma(*route).has_value());
+  route->info.match_noise_measured = true;
+  route->info.tilt_measured = true;
+  route->keyframes[0].tilt_to_next = PairTilt{0.0078125, -0.005};
+  route->keyframes[1].tilt_to_next = PairTilt{-0.015625, 0.00390625};  // exact in binary and text
+  route->keyframes[2].tilt_to_next = PairTilt{0.09, -0.08};  // a corner's mixed homography
+  ASSERT_TRUE(writeRouteIndex(*route).isOk());
+  const auto loaded = loadRoute(dir);
+  ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
+  EXPECT_TRUE(loaded->info.tilt_measured);
+  ASSERT_TRUE(loaded->keyframes[1].tilt_to_next.has_value());
+  EXPECT_DOUBLE_EQ(loaded->keyframes[1].tilt_to_next->pitch, -0.015625);
+  EXPECT_DOUBLE_EQ(loaded->keyframes[1].tilt_to_next->roll, 0.00390625);
+  EXPECT_FALSE(loaded->keyframes[3].tilt_to_next.has_value());
+  // Magnitudes 0.0039 0.005 0.0078 0.0156 0.08 0.09: the upper median (index 3) 0.015625.
+  ASSERT_TRUE(routeTiltSigma(*loaded).has_value());
+  EXPECT_NEAR(*routeTiltSigma(*loaded), 1.4826 * 0.015625, 1e-12);
+
+  auto index = readWholeFile(dir + "/route.yaml");
+  ASSERT_TRUE(index.isOk());
+  const std::string good = "{pitch: -0.015625, roll: 0.00390625}";
+  for (const std::string& bad : {std::string("{pitch: .nan, roll: 0.002}"), std::string("{pitch: -0.2, roll: 0.002}"),
+                                 std::string("{pitch: -0.02}")}) {
+    std::string text = *index;
+    const std::size_t at = text.find(good);
+    ASSERT_NE(at, std::string::npos) << text;
+    text.replace(at, good.size(), bad);
+    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", text).isOk());
+    const auto refused = loadRoute(dir);
+    ASSERT_FALSE(refused.isOk()) << bad;
+    EXPECT_NE(refused.status().message().find(bad == "{pitch: -0.02}" ? "roll" : "keyframe 1"), std::string::npos)
+        << refused.status().message();
+  }
+  std::string older = *index;
+  older.replace(older.find("format_version: 4"), 17, "format_version: 3");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
+  const auto refused = loadRoute(dir);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("format_version 4"), std::string::npos) << refused.status().message();
+
+  auto writer = RouteWriter::create(temporaryDirectory(), route->info);
+  ASSERT_TRUE(writer.isOk());
+  ASSERT_TRUE(writer->addKeyframe(image(1), features(3), {}, Pose2D(0, 0, 0), 1.0).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({std::nullopt}, {PairTilt{std::nan(""), 0.0}}).isOk());
+  EXPECT_FALSE(writer->setMeasuredNoise({std::nullopt}, {PairTilt{0.0, 0.15}}).isOk());
+  EXPECT_TRUE(writer->setMeasuredNoise({std::nullopt}, {PairTilt{0.0, 0.05}}).isOk());
+  EXPECT_TRUE(writer->route().info.tilt_measured);
 }
 
 // Experiences: written file by file then the index (each atomically), read back with their pose

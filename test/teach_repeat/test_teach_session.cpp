@@ -75,10 +75,12 @@ TEST(TeachSession, StoresKeyframesAndEstimatesPlanes) {
 }
 
 // The teach run measures how closely each keyframe's features match the next keyframe's (the
-// synthetic wall's images: a fraction of a pixel), stores it in the route, and the same
-// measurement from the stored files (measureMatchNoise, the migration's) finds the same values.
-// The repeat's pixel σ is match_residual_gain times the route's median residual; with a gain of 0
-// or on a route that was not measured the configured one, and the log line says which.
+// synthetic wall's images: a fraction of a pixel) and the pairs' relative tilt (none here: level
+// images), stores them in the route, and the same measurement from the stored files
+// (measureRouteNoise, the migration's) finds the same values. The repeat's pixel σ is
+// match_residual_gain times the route's median residual, its tilt σ measured_tilt_gain times the
+// route's; with a gain of 0 or on a route that was not measured the configured ones, and the log
+// line says which.
 TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   const std::string dir = makeTemporaryDirectory("htr_teach_noise");
   const TeachOptions options = wallTeachOptions(dir);
@@ -107,12 +109,21 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   EXPECT_FALSE(route->keyframes.back().match_residual.has_value());  // no next keyframe
   const double residual = routeMatchResidual(*route).value_or(-1.0);
   EXPECT_GT(residual, 0.0);
+  EXPECT_TRUE(route->info.tilt_measured);
+  const double tilt = routeTiltSigma(*route).value_or(-1.0);
+  EXPECT_GE(tilt, 0.0);
+  EXPECT_LT(tilt, 0.002);  // level images: what the estimate's own noise leaves
+  EXPECT_FALSE(route->keyframes.back().tilt_to_next.has_value());
 
   Route measured = *route;
-  ASSERT_TRUE(measureMatchNoise(measured).isOk());
+  ASSERT_TRUE(measureRouteNoise(measured).isOk());
   for (std::size_t k = 0; k + 1 < route->keyframes.size(); ++k) {
     ASSERT_TRUE(measured.keyframes[k].match_residual.has_value()) << k;
     EXPECT_NEAR(measured.keyframes[k].match_residual->rms_px, route->keyframes[k].match_residual->rms_px, 0.01) << k;
+    ASSERT_EQ(measured.keyframes[k].tilt_to_next.has_value(), route->keyframes[k].tilt_to_next.has_value()) << k;
+    if (measured.keyframes[k].tilt_to_next) {
+      EXPECT_NEAR(measured.keyframes[k].tilt_to_next->pitch, route->keyframes[k].tilt_to_next->pitch, 1e-3) << k;
+    }
   }
 
   RepeatOptions repeat;
@@ -121,16 +132,36 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.pixel_sigma_px, 1.5 * residual);
   EXPECT_NE(describeMeasuredNoise(repeat, *route).find("match_residual_gain 1.50"), std::string::npos)
       << describeMeasuredNoise(repeat, *route);
+  repeat.pose.tilt_sigma_rad = 0.03;
+  repeat.measured_tilt_gain = 2.0;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.tilt_sigma_rad, 2.0 * tilt);
+  EXPECT_NE(describeMeasuredNoise(repeat, *route).find("measured_tilt_gain 2.00"), std::string::npos)
+      << describeMeasuredNoise(repeat, *route);
+  repeat.measured_tilt_gain = 0.0;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.tilt_sigma_rad, 0.03);
+  repeat.measured_tilt_gain = 1.0;
   repeat.match_residual_gain = 0.0;
   EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.pixel_sigma_px, 0.5);
   repeat.match_residual_gain = 1.5;
   Route older = *route;
   older.info.match_noise_measured = false;
+  older.info.tilt_measured = false;
   older.loaded_format_version = 2;
   EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, older).pose.pixel_sigma_px, 0.5);
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, older).pose.tilt_sigma_rad, 0.03);
   EXPECT_NE(describeMeasuredNoise(repeat, older).find("route_info --migrate " + dir), std::string::npos)
       << describeMeasuredNoise(repeat, older);
+  Route version3 = *route;  // noise measured, tilt not: still told to migrate
+  version3.info.tilt_measured = false;
+  version3.loaded_format_version = 3;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, version3).pose.pixel_sigma_px, 1.5 * residual);
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, version3).pose.tilt_sigma_rad, 0.03);
+  EXPECT_NE(describeMeasuredNoise(repeat, version3).find("route_info --migrate " + dir), std::string::npos)
+      << describeMeasuredNoise(repeat, version3);
   repeat.match_residual_gain = -1.0;
+  EXPECT_THROW(repeat.validate(), std::invalid_argument);
+  repeat.match_residual_gain = 1.5;
+  repeat.measured_tilt_gain = 11.0;
   EXPECT_THROW(repeat.validate(), std::invalid_argument);
   std::filesystem::remove_all(dir);
 }
@@ -138,10 +169,12 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
 // A camera levelled by one constant mount still pitches and rolls with the body (docs/math.md
 // §2.5): images tilted by up to 0.7° taught with planes from odometry. With
 // estimate_keyframe_tilt every keyframe's plane is right (measured: worst normal 1.3°, distance
-// 0.3 %); without it the tilt reads as a wrong plane (13°, 2.5 %).
+// 0.3 %); without it the tilt reads as a wrong plane (13°, 2.5 %). Either way the teach run
+// measures each pair's relative tilt (pairTiltOf), near the images' own difference.
 TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
   const SyntheticWall scene;
   const PinholeCamera camera(calibration());
+  std::vector<Eigen::Vector2d> image_tilts;  // (pitch, roll) of each keyframe's image
   auto teach = [&](bool estimate_tilt, std::vector<PlanarPose>* camera_poses) {
     const std::string dir = makeTemporaryDirectory("htr_teach_tilt");
     TeachOptions options;
@@ -153,6 +186,7 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
     auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
     EXPECT_TRUE(session.isOk()) << session.status().toString();
     camera_poses->clear();
+    image_tilts.clear();
     for (int step = 0; step <= 15; ++step) {
       const double s = 0.1 * step;
       const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
@@ -163,7 +197,10 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
           camera.K() * T * camera.Kinverse() * planeInducedHomography(camera, camera_pose, scene.plane);
       const auto offered = session->offer(test_support::warp(scene.texture, H), cameraAxesToRep103(camera_pose), 10.0 + step);
       EXPECT_TRUE(offered.isOk()) << offered.status().toString();
-      if (offered.isOk() && *offered) camera_poses->push_back(camera_pose);
+      if (offered.isOk() && *offered) {
+        camera_poses->push_back(camera_pose);
+        image_tilts.emplace_back(0.012 * std::sin(1.3 * step), 0.008 * std::cos(0.9 * step));
+      }
     }
     EXPECT_TRUE(session->finish().isOk());
     auto route = loadRoute(dir);
@@ -189,6 +226,19 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
   const auto tilt_errors = worst(*with_tilt, poses);
   EXPECT_LT(tilt_errors.first, 1.5 * M_PI / 180.0);
   EXPECT_LT(tilt_errors.second, 0.03);
+  double true_squares = 0.0;
+  for (std::size_t k = 0; k + 1 < image_tilts.size(); ++k) {
+    const Eigen::Vector2d truth = image_tilts[k + 1] - image_tilts[k];
+    true_squares += truth.squaredNorm();
+    const auto& measured = with_tilt->keyframes[k].tilt_to_next;
+    ASSERT_TRUE(measured.has_value()) << k;
+    EXPECT_NEAR(measured->pitch, truth.x(), 0.004) << k;
+    EXPECT_NEAR(measured->roll, truth.y(), 0.004) << k;
+  }
+  const double true_sigma = std::sqrt(true_squares / (2.0 * static_cast<double>(image_tilts.size() - 1)));
+  ASSERT_TRUE(routeTiltSigma(*with_tilt).has_value());
+  EXPECT_GT(*routeTiltSigma(*with_tilt), 0.5 * true_sigma);
+  EXPECT_LT(*routeTiltSigma(*with_tilt), 2.0 * true_sigma);
   const auto without = teach(false, &poses);
   ASSERT_TRUE(without.isOk()) << without.status().toString();
   const auto planar_errors = worst(*without, poses);

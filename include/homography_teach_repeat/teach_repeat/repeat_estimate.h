@@ -71,6 +71,12 @@ struct RepeatOptions {
   // not exact); 1.5 brings the simulator's room (residual 0.18 px) and KITTI 07 (0.34 px) to the
   // σ each was consistent with (0.30 and 0.5 px; docs/evaluation.md).
   double match_residual_gain = 1.5;
+  // fast_hd: the prior σ of the current camera's tilt (pose.tilt_sigma_rad, a nuisance pair of the
+  // refinement, docs/math.md §1.10) from the route's own images: this gain times the std of the
+  // relative tilt the teach run measured between its keyframes (route.h, routeTiltSigma), instead
+  // of pose.tilt_sigma_rad, which stays for a route without one (format 1-3) and for a gain of 0.
+  // [0-10] 1: the repeat's view and its keyframe differ in tilt as two keyframes do.
+  double measured_tilt_gain = 1.0;
   // A route whose last keyframe is within this distance [m] of its first is a loop: tracking and
   // the neighbour search wrap around from the last keyframe to the first (0: never).
   double closed_route_gap = 1.0;
@@ -170,11 +176,13 @@ struct LocalizeTiming {
 };
 
 // `options` for `route`: pose.pixel_sigma_px = match_residual_gain × the route's measured match
-// residual where it has one and the gain is > 0; otherwise `options` unchanged. RepeatLocalizer
-// and the route audit localize with it (docs/math.md §3.9).
+// residual where it has one and the gain is > 0, pose.tilt_sigma_rad = measured_tilt_gain × its
+// measured tilt σ likewise; otherwise those stay as configured. RepeatLocalizer and the route audit
+// localize with it (docs/math.md §3.9).
 RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route);
-// One line for the log: which pixel σ withMeasuredNoise gives and where it comes from (the route's
-// residual and the gain; the gain 0; or a route that was not measured, with how to measure it).
+// One line for the log: which pixel σ and tilt σ withMeasuredNoise gives and where each comes from
+// (the route's measurement and the gain; the gain 0; or a route that was not measured, with how to
+// measure it).
 std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route);
 
 }  // namespace homography_teach_repeat

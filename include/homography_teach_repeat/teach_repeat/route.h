@@ -5,15 +5,17 @@
 // Every file is written atomically (atomic_file.h) and the index last, so a crash while teaching
 // loses at most the keyframe being written: the index only ever lists complete keyframes.
 //
-// route.yaml (format_version 3; versions 1, without experiences, and 2, without the measured match
-// noise, are read as well and rewritten as 3 by migrateRoute, which measures the noise, or the next write):
-//   format_version: 3
+// route.yaml (format_version 4; versions 1, without experiences, 2, without the measured match
+// noise, and 3, without the measured tilt, are read as well and rewritten as 4 by migrateRoute, which
+// measures what is missing, or the next write):
+//   format_version: 4
 //   feature_type: sift | orb | akaze | surf
 //   camera: {width, height, fx, fy, cx, cy, distortion_model, distortion: [..]}
 //   camera_mount: {x, y, yaw}            # camera optical centre in base_link [m, rad]
 //   first_plane_distance: 3.2            # user-given scale [m]; 0 = unknown
-//   measured_noise: {match_residual_px: 0.30}  # the keyframes' median match residual (below);
-//                                        # absent: not measured (format 1-2)
+//   measured_noise: {match_residual_px: 0.30,  # the keyframes' median match residual (below);
+//                    tilt_rad: 0.004}    # the std of the keyframe pairs' relative tilt (below);
+//                                        # absent: not measured (format 1-2; tilt_rad: 1-3)
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
@@ -21,6 +23,8 @@
 //        match_residual: {rms_px: 0.31, inliers: 412},    # optional: its features matched to the
 //                                                         # next keyframe's (teach), the inliers' rms
 //                                                         # transfer error about their homography [px]
+//        tilt_to_next: {pitch: 0.003, roll: -0.001},      # optional: the next keyframe's camera tilt
+//                                                         # relative to this one's [rad] (teach)
 //        experiences:                                     # optional: other views of this place
 //          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
 //             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
@@ -44,14 +48,24 @@
 
 namespace homography_teach_repeat {
 
-constexpr int kRouteFormatVersion = 3;
+constexpr int kRouteFormatVersion = 4;
 
 // How closely a keyframe's features match the next keyframe's about their homography, measured by
-// the teach run (teach_session.h, measureMatchNoise): the pixel noise of this camera, lens and
+// the teach run (teach_session.h, measureRouteNoise): the pixel noise of this camera, lens and
 // scene as the repeat's matches will have it (docs/route_format.md, "Measured noise").
 struct MatchResidual {
   double rms_px = 0.0;  // rms transfer error of the inliers [px, > 0]
   int inliers = 0;      // [>= 4]
+};
+
+// The next keyframe's camera pitch and roll relative to this keyframe's camera, estimated by the
+// teach run with the pair's plane from its homography and odometry motion (teach_session.h,
+// pairTiltOf; docs/math.md §2.5): the body's pitch and roll between two views, which a camera
+// levelled by its mount alone keeps (docs/route_format.md, "Measured noise").
+constexpr double kMaxPairTilt = 0.1;  // [rad] the largest the estimate accepts (plane_estimation.h)
+struct PairTilt {
+  double pitch = 0.0;  // [rad] about the camera's x axis, finite, within ±kMaxPairTilt
+  double roll = 0.0;   // [rad] about its optical axis, the same
 };
 
 // Another view of a keyframe's place, learned by a repeat run where the taught view matched weakly
@@ -75,6 +89,7 @@ struct RouteKeyframe {
   std::string lines_file;
   std::optional<ScenePlane> plane;  // dominant plane in this keyframe's camera frame
   std::optional<MatchResidual> match_residual;  // absent: not measured, or the pair did not register
+  std::optional<PairTilt> tilt_to_next;  // absent: not measured, or the pair did not show it (no baseline)
   std::vector<RouteExperience> experiences;
 };
 
@@ -86,25 +101,32 @@ struct RouteInfo {
   // Whether the keyframes' match residuals were measured (format 3); false for an older route,
   // whose repeat falls back to the configured pixel_sigma (repeat_estimate.h, withMeasuredNoise).
   bool match_noise_measured = false;
+  // Whether the keyframe pairs' tilts were measured (format 4); false for an older route, whose
+  // repeat falls back to the configured tilt_sigma.
+  bool tilt_measured = false;
 };
 
 struct Route {
   std::string directory;
   RouteInfo info;
   std::vector<RouteKeyframe> keyframes;
-  int loaded_format_version = kRouteFormatVersion;  // as found on disk (1, 2: not yet migrated)
+  int loaded_format_version = kRouteFormatVersion;  // as found on disk (1-3: not yet migrated)
 };
 
 // The route's match residual: the median over its keyframes' rms_px [px]; nullopt when not measured
 // or no keyframe has one.
 std::optional<double> routeMatchResidual(const Route& route);
+// The std of the relative tilt between two views of the route [rad]: 1.4826 × the median of the
+// keyframe pairs' |pitch| and |roll| (a robust std of a zero-mean spread: a pair at a corner whose
+// homography mixes two surfaces does not set it); nullopt when not measured or no pair has one.
+std::optional<double> routeTiltSigma(const Route& route);
 
 // Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed
 // along a path through a map of routes, network/path_route.h, names files of several routes),
 // otherwise relative to `directory` (the route's folder).
 std::string routeFilePath(const std::string& directory, const std::string& file);
 
-// Writes route.yaml (format_version 2) atomically from `route`.
+// Writes route.yaml (the current format_version) atomically from `route`.
 Status writeRouteIndex(const Route& route);
 
 // Adds a learned view to keyframe `keyframe` of `route` (loaded from its directory): writes its
@@ -129,10 +151,12 @@ class RouteWriter {
   Status addKeyframe(const cv::Mat& image, const ImageFeatures& features,
                      const std::vector<VerticalLine>& lines, const Pose2D& pose, double stamp);
 
-  // Sets each keyframe's match residual (size must match; finite rms > 0 and >= 4 inliers where
-  // present) and marks the route's noise measured; written with the next index write (setPlanes,
-  // addKeyframe), so the teach run's ~finish writes its index once.
-  Status setMatchResiduals(const std::vector<std::optional<MatchResidual>>& residuals);
+  // Sets each keyframe's match residual and tilt to the next keyframe (sizes must match; finite rms
+  // > 0 and >= 4 inliers, finite tilts within ±kMaxPairTilt where present) and marks the route's
+  // noise and tilt measured; written with the next index write (setPlanes, addKeyframe), so the
+  // teach run's ~finish writes its index once.
+  Status setMeasuredNoise(const std::vector<std::optional<MatchResidual>>& residuals,
+                          const std::vector<std::optional<PairTilt>>& tilts);
 
   // Sets the plane of each keyframe (size must match) and the scale; rewrites the index.
   Status setPlanes(const std::vector<std::optional<ScenePlane>>& planes,

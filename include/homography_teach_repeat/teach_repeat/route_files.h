@@ -1,6 +1,6 @@
 // Internal to teach_repeat's route sources (route.cpp, route_keyframe_files.cpp): reading the
-// route's YAML with file:line in every error, and writing a keyframe's image and features files
-// atomically. The formats: docs/route_format.md.
+// route's YAML with file:line in every error, and naming and writing a keyframe's image and
+// features files atomically. The formats: docs/route_format.md.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -54,6 +54,8 @@ class Reader {
   std::string file_;
 };
 
+// "keyframes/NNNNNN" for keyframe `index`: the stem of its files' names (and its experiences').
+std::string keyframeStem(int index);
 // A PNG of `image` at `path`, written atomically.
 Status writeImageFile(const std::string& path, const cv::Mat& image);
 // A keyframe's features (type, keypoints, descriptors) as OpenCV YAML at `path`, written atomically.

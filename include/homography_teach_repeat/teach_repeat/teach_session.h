@@ -1,8 +1,9 @@
 // The teach phase without ROS: decides which images become keyframes, stores them (image,
 // features, vertical lines, odometry pose) in a crash-safe route, and at the end estimates the
 // scene planes along the keyframes (docs/math.md §2, plane_estimation.h) from the odometry (or the
-// user-given distance of the first plane) and measures the match noise of the route's own images
-// (docs/route_format.md, "Measured noise"), writing both into the route. teach_node is a thin
+// user-given distance of the first plane) and measures the match noise and the camera's tilt
+// between the route's own images (docs/route_format.md, "Measured noise"), writing both into the
+// route. teach_node is a thin
 // wrapper around this.
 #pragma once
 
@@ -74,7 +75,8 @@ class TeachSession {
   // without planes_from_odometry): the homographies between consecutive keyframes (undistorted
   // matches, robust estimator), docs/math.md §2 along the route with the odometry motion breaking the
   // β ≈ 0 tie; keyframes after a failed pair get no plane. The same pairs' inlier residuals are the
-  // keyframes' match residuals (matchResidualOf). Writes the route index.
+  // keyframes' match residuals (matchResidualOf), and their tilts the keyframes' tilt to the next
+  // (pairTiltOf). Writes the route index.
   Expected<PlaneEstimationReport> finish();
 
   const Route& route() const { return writer_->route(); }
@@ -103,14 +105,23 @@ class TeachSession {
 // their homography [px]; nullopt with fewer than 4 inliers or a non-finite or zero error.
 std::optional<MatchResidual> matchResidualOf(const RegistrationResult& registered);
 
-// Measures a route's match noise from its stored keyframes, as the teach run does (each keyframe's
-// features matched to the next's with `matching` and `robust`, undistorted by the route's camera),
-// and sets it in `route` (keyframes' match_residual, info.match_noise_measured; not written).
-// kInvalidInput for a missing or corrupt features file.
-Status measureMatchNoise(Route& route, const MatchOptions& matching = {}, const RobustHomographyOptions& robust = {});
+// A keyframe pair's relative tilt (route.h, PairTilt): the second camera's pitch and roll
+// estimated with the pair's plane from its homography and the camera motion (camera 2 in camera 1's
+// frame, from odometry; planeAndTiltFromHomographyAndMotion, docs/math.md §2.5). nullopt where the
+// pair does not show it: fewer than 4 inliers, less than the plane estimation's baseline (turning
+// in place), a tilt beyond kMaxPairTilt, or no plausible wall in front (a floor, too far).
+std::optional<PairTilt> pairTiltOf(const RegistrationResult& registered, const PinholeCamera& camera,
+                                   const PlanarPose& camera_motion);
 
-// Rewrites a route's index in the current format (3): a route of version 1 or 2 keeps its
-// keyframes and experiences and has its match noise measured (measureMatchNoise with the teach
+// Measures a route's match noise and tilt from its stored keyframes, as the teach run does (each
+// keyframe's features matched to the next's with `matching` and `robust`, undistorted by the
+// route's camera; the motion from the keyframes' poses and the camera mount), and sets them in
+// `route` (keyframes' match_residual and tilt_to_next, info.match_noise_measured and tilt_measured;
+// not written). kInvalidInput for a missing or corrupt features file.
+Status measureRouteNoise(Route& route, const MatchOptions& matching = {}, const RobustHomographyOptions& robust = {});
+
+// Rewrites a route's index in the current format (4): a route of version 1 to 3 keeps its
+// keyframes and experiences and has what it lacks measured (measureRouteNoise with the teach
 // defaults). Atomic; the keyframe files are untouched. kInvalidInput naming the file when the
 // route cannot be read, measured or written.
 Status migrateRoute(const std::string& directory);

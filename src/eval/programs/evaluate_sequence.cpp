@@ -100,6 +100,7 @@ cli::Arguments sequenceArguments() {
        {"plane-normal-sigma", std::to_string(repeat_defaults.pose.plane_normal_sigma_rad)},
        {"plane-distance-sigma", std::to_string(repeat_defaults.pose.plane_distance_sigma)},
        {"tilt-sigma", std::to_string(repeat_defaults.pose.tilt_sigma_rad)},
+       {"measured-tilt-gain", std::to_string(repeat_defaults.measured_tilt_gain)},
        {"heading-sigma", std::to_string(repeat_defaults.pose.heading_sigma_rad)},
        {"common-shift-sigma", std::to_string(repeat_defaults.pose.common_shift_sigma_px)}, {"teach-tilt", "0"},
        {"max-plane-residual", std::to_string(repeat_defaults.max_plane_residual_px)},
@@ -122,6 +123,7 @@ cli::Arguments sequenceArguments() {
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
       "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
       "  [--background-detection 0|1] (the features of a tracked frame detected on a worker thread meanwhile)\n"
+      "  [--measured-tilt-gain G] (the tilt nuisance's prior sigma: G x the teach run's measured tilt; 0: --tilt-sigma)\n"
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
       "  [--max-plane-residual PX] (RMS of the matches about the keyframe plane's homography above which a keyframe is refused)\n"
       "  [--teach-tilt 0|1] (each keyframe pair's relative pitch and roll estimated with its plane)\n"
@@ -167,6 +169,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
   options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.localization.pose.tilt_sigma_rad = args.number("tilt-sigma");
+  options.repeat.localization.measured_tilt_gain = args.number("measured-tilt-gain");
   options.repeat.localization.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.localization.pose.common_shift_sigma_px = args.number("common-shift-sigma");
   options.repeat.localization.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
@@ -268,7 +271,10 @@ int main(int argc, char** argv) {
                        {"match_residual_px", routeMatchResidual(evaluation->route).value_or(0.0)},
                        {"plane_normal_sigma_rad", options.repeat.localization.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
-                       {"tilt_sigma", options.repeat.localization.pose.tilt_sigma_rad},
+                       {"tilt_sigma", withMeasuredNoise(options.repeat.localization, evaluation->route).pose.tilt_sigma_rad},
+                       {"tilt_sigma_fallback", options.repeat.localization.pose.tilt_sigma_rad},
+                       {"measured_tilt_gain", options.repeat.localization.measured_tilt_gain},
+                       {"measured_tilt_rad", routeTiltSigma(evaluation->route).value_or(0.0)},
                        {"heading_sigma", options.repeat.localization.pose.heading_sigma_rad},
                        {"common_shift_sigma_px", options.repeat.localization.pose.common_shift_sigma_px},
                        {"mu_line_landmarks", options.repeat.localization.mu_line_landmarks},

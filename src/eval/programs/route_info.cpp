@@ -134,7 +134,11 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                        {"match_noise_measured", route.info.match_noise_measured},
                        {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
-                       {"tilt_sigma", options.repeat.pose.tilt_sigma_rad},
+                       {"tilt_sigma", withMeasuredNoise(options.repeat, route).pose.tilt_sigma_rad},
+                       {"tilt_sigma_fallback", options.repeat.pose.tilt_sigma_rad},
+                       {"measured_tilt_gain", options.repeat.measured_tilt_gain},
+                       {"measured_tilt_rad", routeTiltSigma(route).value_or(0.0)},
+                       {"tilt_measured", route.info.tilt_measured},
                        {"heading_sigma", options.repeat.pose.heading_sigma_rad},
                        {"common_shift_sigma_px", options.repeat.pose.common_shift_sigma_px},
                        {"min_plane_features", options.min_plane_features},
@@ -148,6 +152,8 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
     const auto& measured = route.keyframes[static_cast<std::size_t>(a.keyframe)].match_residual;
     k["match_residual"] = measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}}
                                    : nlohmann::json();
+    const auto& tilt = route.keyframes[static_cast<std::size_t>(a.keyframe)].tilt_to_next;
+    k["tilt_to_next"] = tilt ? nlohmann::json{{"pitch_rad", tilt->pitch}, {"roll_rad", tilt->roll}} : nlohmann::json();
     if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
       const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
       k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
@@ -235,7 +241,9 @@ cli::Arguments routeInfoArguments() {
        {"match-residual-gain", std::to_string(repeat_defaults.match_residual_gain)},
        {"plane-normal-sigma", std::to_string(pose_defaults.plane_normal_sigma_rad)},
        {"plane-distance-sigma", std::to_string(pose_defaults.plane_distance_sigma)},
-       {"tilt-sigma", std::to_string(pose_defaults.tilt_sigma_rad)}, {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
+       {"tilt-sigma", std::to_string(pose_defaults.tilt_sigma_rad)},
+       {"measured-tilt-gain", std::to_string(repeat_defaults.measured_tilt_gain)},
+       {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
        {"common-shift-sigma", std::to_string(pose_defaults.common_shift_sigma_px)},
        {"plane-sigma-from-neighbours", repeat_defaults.plane_sigma_from_neighbours ? "1" : "0"},
        {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
@@ -245,6 +253,7 @@ cli::Arguments routeInfoArguments() {
       "  [--offset M] (the predicted fix: this far to the side of each keyframe)\n"
       "  [--aliasing 0|1] (match every keyframe against every other: n² matchings)\n"
       "  [--match-residual-gain G] (the pixel sigma: G x the route's measured match residual; 0 or none: --pixel-sigma)\n"
+      "  [--measured-tilt-gain G] (the tilt sigma: G x the route's measured tilt; 0 or none: --tilt-sigma)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
       "  [--heading-sigma RAD] [--common-shift-sigma PX] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance\n"
       "  terms, as repeat_node's parameters; the defaults are its defaults)\n"
@@ -282,6 +291,7 @@ int main(int argc, char** argv) {
   options.repeat.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
   options.repeat.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.pose.tilt_sigma_rad = args.number("tilt-sigma");
+  options.repeat.measured_tilt_gain = args.number("measured-tilt-gain");
   options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.pose.common_shift_sigma_px = args.number("common-shift-sigma");
   options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;

@@ -19,6 +19,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.pose.plane_normal_sigma_rad = readParameter(nh, "plane_normal_sigma", r.pose.plane_normal_sigma_rad);
     r.pose.plane_distance_sigma = readParameter(nh, "plane_distance_sigma", r.pose.plane_distance_sigma);
     r.pose.tilt_sigma_rad = readParameter(nh, "tilt_sigma", r.pose.tilt_sigma_rad);
+    r.measured_tilt_gain = readParameter(nh, "measured_tilt_gain", r.measured_tilt_gain);
     r.pose.heading_sigma_rad = readParameter(nh, "heading_sigma", r.pose.heading_sigma_rad);
     r.pose.common_shift_sigma_px = readParameter(nh, "common_shift_sigma", r.pose.common_shift_sigma_px);
     r.plane_sigma_from_neighbours = readParameter(nh, "plane_sigma_from_neighbours", r.plane_sigma_from_neighbours);
