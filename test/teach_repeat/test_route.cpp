@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
@@ -87,6 +89,22 @@ Route writeRoute(const std::string& dir, int keyframes) {
                     .isOk());
   }
   return writer->route();
+}
+
+// Each `bad` text put in place of `good` in a route's index makes loadRoute refuse the route,
+// its message naming the given words.
+void expectEachRefused(const std::string& dir, const std::string& index, const std::string& good,
+                       const std::vector<std::pair<std::string, std::string>>& bad_and_named) {
+  for (const auto& [bad, named] : bad_and_named) {
+    std::string text = index;
+    const std::size_t at = text.find(good);
+    ASSERT_NE(at, std::string::npos) << text;
+    text.replace(at, good.size(), bad);
+    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", text).isOk());
+    const auto refused = loadRoute(dir);
+    ASSERT_FALSE(refused.isOk()) << bad;
+    EXPECT_NE(refused.status().message().find(named), std::string::npos) << refused.status().message();
+  }
 }
 
 }  // namespace
@@ -339,19 +357,9 @@ TEST(Route, MeasuredMatchNoiseIsKeptAndValidated) {
 
   auto index = readWholeFile(dir + "/route.yaml");
   ASSERT_TRUE(index.isOk());
-  const std::string good = "{rms_px: 0.25, inliers: 50}";
-  for (const std::string& bad : {std::string("{rms_px: .nan, inliers: 50}"), std::string("{rms_px: -0.25, inliers: 50}"),
-                                 std::string("{rms_px: 0.25, inliers: 2}"), std::string("{rms_px: 0.25}")}) {
-    std::string text = *index;
-    const std::size_t at = text.find(good);
-    ASSERT_NE(at, std::string::npos) << text;
-    text.replace(at, good.size(), bad);
-    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", text).isOk());
-    const auto refused = loadRoute(dir);
-    ASSERT_FALSE(refused.isOk()) << bad;
-    EXPECT_NE(refused.status().message().find(bad == "{rms_px: 0.25}" ? "inliers" : "keyframe 1"), std::string::npos)
-        << refused.status().message();
-  }
+  expectEachRefused(dir, *index, "{rms_px: 0.25, inliers: 50}",
+                    {{"{rms_px: .nan, inliers: 50}", "keyframe 1"}, {"{rms_px: -0.25, inliers: 50}", "keyframe 1"},
+                     {"{rms_px: 0.25, inliers: 2}", "keyframe 1"}, {"{rms_px: 0.25}", "inliers"}});
   RouteInfo info = route->info;
   auto writer = RouteWriter::create(temporaryDirectory(), info);
   ASSERT_TRUE(writer.isOk());
@@ -392,19 +400,9 @@ TEST(Route, MeasuredTiltIsKeptAndValidated) {
 
   auto index = readWholeFile(dir + "/route.yaml");
   ASSERT_TRUE(index.isOk());
-  const std::string good = "{pitch: -0.015625, roll: 0.00390625}";
-  for (const std::string& bad : {std::string("{pitch: .nan, roll: 0.002}"), std::string("{pitch: -0.2, roll: 0.002}"),
-                                 std::string("{pitch: -0.02}")}) {
-    std::string text = *index;
-    const std::size_t at = text.find(good);
-    ASSERT_NE(at, std::string::npos) << text;
-    text.replace(at, good.size(), bad);
-    ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", text).isOk());
-    const auto refused = loadRoute(dir);
-    ASSERT_FALSE(refused.isOk()) << bad;
-    EXPECT_NE(refused.status().message().find(bad == "{pitch: -0.02}" ? "roll" : "keyframe 1"), std::string::npos)
-        << refused.status().message();
-  }
+  expectEachRefused(dir, *index, "{pitch: -0.015625, roll: 0.00390625}",
+                    {{"{pitch: .nan, roll: 0.002}", "keyframe 1"}, {"{pitch: -0.2, roll: 0.002}", "keyframe 1"},
+                     {"{pitch: -0.02}", "roll"}});
   std::string older = *index;
   older.replace(older.find("format_version: 4"), 17, "format_version: 3");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
