@@ -311,6 +311,10 @@ Expected<ScenePlane> planeOfPair(const ReferencePair& pair, const PinholeCamera&
 }
 }  // namespace
 
+bool isPlausibleWall(const ScenePlane& plane, const OdometryPlaneOptions& options) {
+  return plane.validate().isOk() && plane.normal.z() > 0.0 && plane.distance < options.max_distance;
+}
+
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,
                                                         const OdometryPlaneOptions& options) {
@@ -323,10 +327,7 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
     }
     if (!pairs[k].has_homography) continue;
     const auto plane = planeOfPair(pairs[k], camera, options);
-    // Plausible: a wall (not floor/ceiling), in front of the camera, not too far.
-    if (plane && plane->validate().isOk() && plane->normal.z() > 0.0 && plane->distance < options.max_distance) {
-      planes[k] = *plane;
-    }
+    if (plane && isPlausibleWall(*plane, options)) planes[k] = *plane;
   }
   // Where the pair before a keyframe turned clearly less than the pair after it, that pair's plane
   // carried into the keyframe (docs/math.md §2.6). From the estimates of the pairs themselves, so

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <utility>
 
 #include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/teach_repeat/route_files.h"
@@ -52,6 +53,14 @@ Status refuseExistingRoute(const std::string& directory, bool overwrite) {
                   "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
   }
   return Status::ok();
+}
+
+// The element at size/2 of the sorted values (the upper of the two middle ones); nullopt for none.
+std::optional<double> upperMedian(std::vector<double> values) {
+  if (values.empty()) return std::nullopt;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
 }
 
 void emitPose(YAML::Emitter& out, const Pose2D& pose) {
@@ -174,7 +183,7 @@ Status RouteWriter::setMeasuredNoise(const std::vector<std::optional<MatchResidu
       return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(k) +
                                                    ": match residual must be finite and > 0 with >= 4 inliers");
     }
-    if (tilts[k] && !(std::abs(tilts[k]->pitch) <= kMaxPairTilt && std::abs(tilts[k]->roll) <= kMaxPairTilt)) {
+    if (tilts[k] && !tilts[k]->inRange()) {
       return Status(StatusCode::kInvalidInput, "keyframe " + std::to_string(k) +
                                                    ": tilt to the next keyframe must be finite and within 0.1 rad");
     }
@@ -196,10 +205,7 @@ std::optional<double> routeMatchResidual(const Route& route) {
   for (const RouteKeyframe& k : route.keyframes) {
     if (k.match_residual) values.push_back(k.match_residual->rms_px);
   }
-  if (values.empty()) return std::nullopt;
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
+  return upperMedian(std::move(values));
 }
 
 std::optional<double> routeTiltSigma(const Route& route) {
@@ -210,10 +216,9 @@ std::optional<double> routeTiltSigma(const Route& route) {
     magnitudes.push_back(std::abs(k.tilt_to_next->pitch));
     magnitudes.push_back(std::abs(k.tilt_to_next->roll));
   }
-  if (magnitudes.empty()) return std::nullopt;
-  const auto middle = magnitudes.begin() + static_cast<std::ptrdiff_t>(magnitudes.size() / 2);
-  std::nth_element(magnitudes.begin(), middle, magnitudes.end());
-  return 1.4826 * *middle;  // the median of |x| is 0.6745 σ for a zero-mean normal x
+  const std::optional<double> median = upperMedian(std::move(magnitudes));
+  if (!median) return std::nullopt;
+  return 1.4826 * *median;  // the median of |x| is 0.6745 σ for a zero-mean normal x
 }
 
 Status writeRouteIndex(const Route& route) {
@@ -415,9 +420,7 @@ Expected<Route> loadRoute(const std::string& directory) {
         if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
         if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
         const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
-        if (!(std::abs(measured.pitch) <= kMaxPairTilt && std::abs(measured.roll) <= kMaxPairTilt)) {
-          throw reader.error(tilt, name + " must be finite and within 0.1 rad");
-        }
+        if (!measured.inRange()) throw reader.error(tilt, name + " must be finite and within 0.1 rad");
         k.tilt_to_next = measured;
       }
       if (const YAML::Node experiences = node["experiences"]) {

@@ -117,10 +117,6 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
     pair.has_odometry = true;
     pair.odometry_motion =
         mount.baseToCamera(route.keyframes[k].pose.inverse().compose(route.keyframes[k + 1].pose));
-    if (registered) {
-      residuals[k] = matchResidualOf(*registered);
-      tilts[k] = pairTiltOf(*registered, camera_, pair.odometry_motion);
-    }
     if (!registered) {
       report.messages.push_back("pair " + std::to_string(k) + ": " + registered.status().toString());
       if (!options_.planes_from_odometry) break;
@@ -128,6 +124,8 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
       pairs.push_back(pair);
       continue;
     }
+    residuals[k] = matchResidualOf(*registered);
+    tilts[k] = pairTiltOf(*registered, camera_, pair.odometry_motion);
     pair.H_next_from_current = registered->homography.H;
     for (const int i : registered->homography.inliers) {
       pair.reference_pixels.push_back(registered->matches[static_cast<std::size_t>(i)].reference);
@@ -173,10 +171,7 @@ std::optional<PairTilt> pairTiltOf(const RegistrationResult& registered, const P
   const auto estimated = planeAndTiltFromHomographyAndMotion(registered.homography.H, camera, camera_motion,
                                                              plausible.min_baseline, kMaxPairTilt);
   // A pair that shows no wall in front (a floor, the plane behind or too far) says nothing of the tilt.
-  if (!estimated || !estimated->plane.validate().isOk() || !(estimated->plane.normal.z() > 0.0) ||
-      !(estimated->plane.distance < plausible.max_distance)) {
-    return std::nullopt;
-  }
+  if (!estimated || !isPlausibleWall(estimated->plane, plausible)) return std::nullopt;
   return PairTilt{estimated->pitch, estimated->roll};
 }
 

@@ -147,6 +147,10 @@ struct OdometryPlaneOptions {
   // route takes the next leg's wall from its own pair (docs/math.md §2.6).
   std::optional<PlanarPose> closing_motion;
 };
+// Whether an estimated plane is one the odometry planes take: valid, a wall (not a floor or
+// ceiling) in front of the camera, nearer than options.max_distance.
+bool isPlausibleWall(const ScenePlane& plane, const OdometryPlaneOptions& options);
+
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,
                                                         const OdometryPlaneOptions& options = {});

@@ -35,6 +35,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -66,6 +67,7 @@ constexpr double kMaxPairTilt = 0.1;  // [rad] the largest the estimate accepts 
 struct PairTilt {
   double pitch = 0.0;  // [rad] about the camera's x axis, finite, within ±kMaxPairTilt
   double roll = 0.0;   // [rad] about its optical axis, the same
+  bool inRange() const { return std::abs(pitch) <= kMaxPairTilt && std::abs(roll) <= kMaxPairTilt; }  // false for NaN
 };
 
 // Another view of a keyframe's place, learned by a repeat run where the taught view matched weakly

@@ -263,15 +263,16 @@ int main(int argc, char** argv) {
   nlohmann::json document = eval::toJson(*evaluation);
   document["source"] = {{"teach", teach_sequence.description}, {"repeat", repeat_sequence.description},
                         {"camera_mount", teach_sequence.mount_source}};
+  const RepeatOptions used = withMeasuredNoise(options.repeat.localization, evaluation->route);
   document["setup"] = {{"mode", args.text("mode")}, {"level", args.text("level")}, {"scale", options.image_scale},
                        {"keyframes", keyframes}, {"keyframe_distance_m", options.teach.keyframes.distance},
-                       {"pixel_sigma_px", withMeasuredNoise(options.repeat.localization, evaluation->route).pose.pixel_sigma_px},
+                       {"pixel_sigma_px", used.pose.pixel_sigma_px},
                        {"pixel_sigma_fallback_px", options.repeat.localization.pose.pixel_sigma_px},
                        {"match_residual_gain", options.repeat.localization.match_residual_gain},
                        {"match_residual_px", routeMatchResidual(evaluation->route).value_or(0.0)},
                        {"plane_normal_sigma_rad", options.repeat.localization.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},
-                       {"tilt_sigma", withMeasuredNoise(options.repeat.localization, evaluation->route).pose.tilt_sigma_rad},
+                       {"tilt_sigma", used.pose.tilt_sigma_rad},
                        {"tilt_sigma_fallback", options.repeat.localization.pose.tilt_sigma_rad},
                        {"measured_tilt_gain", options.repeat.localization.measured_tilt_gain},
                        {"measured_tilt_rad", routeTiltSigma(evaluation->route).value_or(0.0)},

@@ -126,15 +126,16 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
   nlohmann::json document;
   document["kind"] = "route_audit";
   document["route"] = route.directory;
+  const RepeatOptions used = withMeasuredNoise(options.repeat, route);
   document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
-                       {"pixel_sigma", withMeasuredNoise(options.repeat, route).pose.pixel_sigma_px},
+                       {"pixel_sigma", used.pose.pixel_sigma_px},
                        {"pixel_sigma_fallback", options.repeat.pose.pixel_sigma_px},
                        {"match_residual_gain", options.repeat.match_residual_gain},
                        {"match_residual_px", routeMatchResidual(route).value_or(0.0)},
                        {"match_noise_measured", route.info.match_noise_measured},
                        {"plane_normal_sigma", options.repeat.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.pose.plane_distance_sigma},
-                       {"tilt_sigma", withMeasuredNoise(options.repeat, route).pose.tilt_sigma_rad},
+                       {"tilt_sigma", used.pose.tilt_sigma_rad},
                        {"tilt_sigma_fallback", options.repeat.pose.tilt_sigma_rad},
                        {"measured_tilt_gain", options.repeat.measured_tilt_gain},
                        {"measured_tilt_rad", routeTiltSigma(route).value_or(0.0)},
