@@ -37,7 +37,7 @@ struct RouteFollowerOptions {
   // the robot is.
   double odometry_timeout = 0.2;
   double carried_pose_timeout = 1.0;
-  int start_index = 0;        // first goal keyframe
+  int start_index = 1;        // first goal keyframe (the robot starts at keyframe 0)
   int end_index = -1;         // last goal keyframe (-1: the last one)
   int laps = 1;               // closed routes: goals start_index..end_index repeated
   // A goal is passed within goal_tolerance (ε). Paper 002's second test, the heading within

@@ -73,7 +73,7 @@ struct LocalizationFilterOptions {
   // plus this fraction of the rest (docs/math.md §7.1). 0: every fix independent (a robot
   // standing at the end of the simulator's room for 20 s claimed a tenth of a millimetre with 1 mm
   // errors: NEES 63).
-  double pose_common_fraction = 0.5;
+  double pose_common_fraction = 0.25;  // chosen in closed loop (docs/math.md §7.1)
   int refused_before_reset = 20;                // >= 1
   // A μ fix is taken only when it agrees with the previous frame's μ against the same keyframe:
   // the change of μ between the two within this [px] of the change the odometry predicts, the

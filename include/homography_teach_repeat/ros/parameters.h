@@ -5,16 +5,56 @@
 
 #include <ros/node_handle.h>
 
+#include <iomanip>
+#include <map>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace homography_teach_repeat {
+
+// Collects, while it lives, the default of every scalar parameter read through readParameter in
+// this process: resolved name -> the default as text (bool "true"/"false", numbers with 17
+// digits, strings as they are). What a node uses where its YAML is silent; the rostest
+// `config_defaults` checks that config/*.yaml states exactly these values. One at a time.
+class ParameterDefaultsRecorder {
+ public:
+  ParameterDefaultsRecorder();
+  ~ParameterDefaultsRecorder();
+  ParameterDefaultsRecorder(const ParameterDefaultsRecorder&) = delete;
+  ParameterDefaultsRecorder& operator=(const ParameterDefaultsRecorder&) = delete;
+  const std::map<std::string, std::string>& defaults() const { return defaults_; }
+
+  // The recorder alive, or nullptr.
+  static ParameterDefaultsRecorder* active();
+  void record(const std::string& name, const std::string& text) { defaults_[name] = text; }
+
+ private:
+  std::map<std::string, std::string> defaults_;
+};
+
+template <typename T>
+void recordParameterDefault(const ros::NodeHandle& nh, const std::string& name, const T& default_value) {
+  ParameterDefaultsRecorder* recorder = ParameterDefaultsRecorder::active();
+  if (recorder == nullptr) return;
+  if constexpr (std::is_same_v<T, bool>) {
+    recorder->record(nh.resolveName(name), default_value ? "true" : "false");
+  } else if constexpr (std::is_arithmetic_v<T>) {
+    std::ostringstream text;
+    text << std::setprecision(17) << default_value;
+    recorder->record(nh.resolveName(name), text.str());
+  } else if constexpr (std::is_convertible_v<T, std::string>) {
+    recorder->record(nh.resolveName(name), std::string(default_value));
+  }
+}
 
 // The start-up error for a bad parameter: "invalid parameter in <namespace>: <what>".
 std::runtime_error invalidParameter(const ros::NodeHandle& nh, const std::string& what);
 
 template <typename T>
 T readParameter(const ros::NodeHandle& nh, const std::string& name, const T& default_value) {
+  recordParameterDefault(nh, name, default_value);
   if (!nh.hasParam(name)) return default_value;
   T value;
   if (!nh.getParam(name, value)) {
@@ -28,6 +68,7 @@ T readParameter(const ros::NodeHandle& nh, const std::string& name, const T& def
 template <>
 inline double readParameter<double>(const ros::NodeHandle& nh, const std::string& name,
                                     const double& default_value) {
+  recordParameterDefault(nh, name, default_value);
   if (!nh.hasParam(name)) return default_value;
   double value = 0.0;
   if (nh.getParam(name, value)) return value;

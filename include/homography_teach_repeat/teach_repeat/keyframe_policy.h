@@ -10,7 +10,7 @@
 namespace homography_teach_repeat {
 
 struct KeyframePolicy {
-  double distance = 1.0;  // [m]
+  double distance = 0.5;  // [m] (config/teach_node.yaml says how to choose it)
   double angle = 0.35;    // [rad]
 
   void validate() const;  // throws std::invalid_argument naming the bad field

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
+#include "homography_teach_repeat/features/feature_extractor.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/features/vertical_lines.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
@@ -25,10 +26,14 @@ enum class RepeatMode { kFastHd, kMu, kClassic, kHybrid };
 // "fast_hd", "mu", "classic", "hybrid"; throws std::invalid_argument naming the accepted values.
 RepeatMode repeatModeFromString(const std::string& name);
 std::string toString(RepeatMode mode);
+// The mode repeat_node and evaluate_sequence run unless told (config/repeat_node.yaml `mode`):
+// hybrid, every fix the place offers in one filter (docs/math.md §7.1). RepeatOptions::mode below is
+// the single-frame localizer's own default.
+inline constexpr RepeatMode kDefaultRepeatMode = RepeatMode::kHybrid;
 
 struct RepeatOptions {
   RepeatMode mode = RepeatMode::kFastHd;
-  int max_features = 1500;
+  int max_features = kRouteMaxFeatures;
   MatchOptions matching;
   PlanarPoseEstimatorOptions pose;
   HeadingCorrectionOptions heading;

@@ -29,7 +29,7 @@ namespace homography_teach_repeat {
 struct TeachOptions {
   std::string route_directory;
   bool overwrite = false;
-  FeatureOptions features;
+  FeatureOptions features{FeatureType::kSift, kRouteMaxFeatures};
   MatchOptions matching;
   RobustHomographyOptions robust;
   VerticalLineOptions lines;

@@ -86,11 +86,11 @@ cli::Arguments sequenceArguments() {
   return cli::Arguments(
       "evaluate_sequence",
       {{"kitti", ""}, {"strecha", ""}, {"bag", ""}, {"repeat-bag", ""}, {"out", ""},
-       {"mode", "fast_hd"}, {"level", "gravity"}, {"scale", "1.0"},
+       {"mode", toString(kDefaultRepeatMode)}, {"level", "gravity"}, {"scale", "1.0"},
        {"keyframes", "policy"}, {"keyframe-distance", "2.0"}, {"keyframe-angle", "0.35"}, {"stride", "4"},
        {"teach-frames", ""}, {"repeat-frames", ""}, {"teach-range", ""}, {"repeat-range", ""},
        {"teach-time", ""}, {"repeat-time", ""},
-       {"feature", "sift"}, {"max-features", "2000"}, {"first-plane-distance", "0"},
+       {"feature", "sift"}, {"max-features", std::to_string(repeat_defaults.max_features)}, {"first-plane-distance", "0"},
        {"teach-odometry", "truth"}, {"scale-error", "0.02"}, {"heading-bias", "0.02"},
        {"distance-noise", "0.01"}, {"heading-noise", "0.002"}, {"seed", "1"},
        {"image-topic", "/camera/image_raw"}, {"camera-info-topic", ""}, {"odom-topic", "/odom"},
@@ -111,7 +111,7 @@ cli::Arguments sequenceArguments() {
        {"line-min-length", std::to_string(repeat_defaults.lines.min_length_px)}, {"shift-heading", "1"},
        {"hybrid-fuse-both", RepeatPipelineOptions().hybrid_fuse_both ? "1" : "0"}},
       "(--kitti DIR | --strecha DIR | --bag BAG [--repeat-bag BAG]) --out DIR\n"
-      "  [--mode fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
+      "  [--mode hybrid|fast_hd|mu|classic] [--level gravity|mount|none] [--scale S]\n"
       "  [--keyframes policy|stride|list] [--keyframe-distance M] [--keyframe-angle RAD] [--stride N]\n"
       "  [--teach-frames I,J,..] [--repeat-frames I,J,..] [--teach-range A:B] [--repeat-range A:B] (indices)\n"
       "  [--teach-time A:B] [--repeat-time A:B] (bag: seconds from its first image)\n"

@@ -11,7 +11,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
   RepeatPipelineOptions o;
   readParameters(nh, [&] {
     RepeatOptions& r = o.localization;
-    r.mode = repeatModeFromString(readParameter<std::string>(nh, "mode", "hybrid"));
+    r.mode = repeatModeFromString(readParameter<std::string>(nh, "mode", toString(kDefaultRepeatMode)));
     r.max_features = readParameter(nh, "max_features", r.max_features);
     r.pose.pixel_sigma_px = readParameter(nh, "pixel_sigma", r.pose.pixel_sigma_px);
     r.match_residual_gain = readParameter(nh, "match_residual_gain", r.match_residual_gain);

@@ -28,7 +28,7 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh, bool into_map) {
                                   "' is not available in this OpenCV build; available: " +
                                   availableFeatureTypes());
     }
-    options.features.max_features = readParameter(nh, "max_features", 1500);
+    options.features.max_features = readParameter(nh, "max_features", options.features.max_features);
     options.keyframes.distance = readParameter(nh, "keyframe_distance", options.keyframes.distance);
     options.keyframes.angle = readParameter(nh, "keyframe_angle", options.keyframes.angle);
     options.first_plane_distance =
