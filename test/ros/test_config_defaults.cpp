@@ -94,6 +94,15 @@ std::string joined(const std::vector<std::string>& lines) {
   return text;
 }
 
+// The YAML states every recorded default it sets, and sets at least `min_compared` of them (the
+// readers cover the file; a few parameters are read by the nodes themselves).
+void expectDefaultsStated(const ParameterDefaultsRecorder& recorder, int min_compared,
+                          const std::set<std::string>& ignored = {}) {
+  const Comparison comparison = compareWithServer(recorder, ignored);
+  EXPECT_TRUE(comparison.mismatches.empty()) << joined(comparison.mismatches);
+  EXPECT_GE(comparison.compared, min_compared);
+}
+
 }  // namespace
 
 TEST(ConfigDefaults, RepeatNodeYamlStatesTheBuiltInDefaults) {
@@ -103,10 +112,7 @@ TEST(ConfigDefaults, RepeatNodeYamlStatesTheBuiltInDefaults) {
   readRelocalizationOptions(nh);
   readImageTransport(nh);
   readOdometryWait(nh);
-  const Comparison comparison = compareWithServer(recorder);
-  EXPECT_TRUE(comparison.mismatches.empty()) << joined(comparison.mismatches);
-  // The readers cover most of the file (the frames and a few more are read by the node itself).
-  EXPECT_GE(comparison.compared, 75);
+  expectDefaultsStated(recorder, 75);
 }
 
 TEST(ConfigDefaults, RepeatNodeLearningYamlStatesTheBuiltInDefaults) {
@@ -114,9 +120,7 @@ TEST(ConfigDefaults, RepeatNodeLearningYamlStatesTheBuiltInDefaults) {
   const ros::NodeHandle nh("/learning_config");
   ParameterDefaultsRecorder recorder;
   ASSERT_TRUE(readExperienceLearningOptions(nh).has_value());
-  const Comparison comparison = compareWithServer(recorder, {"/learning_config/learn_experiences"});
-  EXPECT_TRUE(comparison.mismatches.empty()) << joined(comparison.mismatches);
-  EXPECT_GE(comparison.compared, 5);
+  expectDefaultsStated(recorder, 5, {"/learning_config/learn_experiences"});
 }
 
 TEST(ConfigDefaults, TeachNodeYamlStatesTheBuiltInDefaults) {
@@ -127,18 +131,14 @@ TEST(ConfigDefaults, TeachNodeYamlStatesTheBuiltInDefaults) {
   readImageTransport(nh);
   readOdometryWait(nh);
   // route_directory is set by the test, not the YAML.
-  const Comparison comparison = compareWithServer(recorder, {"/teach_config/route_directory"});
-  EXPECT_TRUE(comparison.mismatches.empty()) << joined(comparison.mismatches);
-  EXPECT_GE(comparison.compared, 12);
+  expectDefaultsStated(recorder, 12, {"/teach_config/route_directory"});
 }
 
 TEST(ConfigDefaults, ControllerNodeYamlStatesTheBuiltInDefaults) {
   const ros::NodeHandle nh("/controller_config");
   ParameterDefaultsRecorder recorder;
   readRouteFollowerOptions(nh);
-  const Comparison comparison = compareWithServer(recorder);
-  EXPECT_TRUE(comparison.mismatches.empty()) << joined(comparison.mismatches);
-  EXPECT_GE(comparison.compared, 30);
+  expectDefaultsStated(recorder, 30);
 }
 
 TEST(ConfigDefaults, AValueOffItsDefaultIsFound) {
