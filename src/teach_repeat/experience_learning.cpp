@@ -7,6 +7,9 @@
 #include <stdexcept>
 #include <utility>
 
+#include "homography_teach_repeat/homography/image_registration.h"
+#include "homography_teach_repeat/teach_repeat/teach_session.h"
+
 namespace homography_teach_repeat {
 
 void ExperienceLearningOptions::validate() const {
@@ -77,6 +80,7 @@ std::map<int, double> ExperienceRecorder::candidates() const {
 
 Expected<int> ExperienceRecorder::commit(Route& route, FeatureExtractor& extractor) {
   int added = 0;
+  std::map<int, std::pair<ImageFeatures, Pose2D>> learned;  // this run's views, by keyframe
   for (auto it = candidates_.begin(); it != candidates_.end();) {
     const ExperienceObservation& o = it->second.observation;
     auto features = extractor.extract(o.image);
@@ -84,10 +88,36 @@ Expected<int> ExperienceRecorder::commit(Route& route, FeatureExtractor& extract
     const Status status = addExperience(route, static_cast<std::size_t>(it->first), o.image, *features, o.pose,
                                         o.covariance, o.stamp, options_.max_experiences);
     if (!status.isOk()) return status;
+    learned.emplace(it->first, std::make_pair(std::move(*features), o.pose));
     ++added;
     it = candidates_.erase(it);
   }
+  if (measurePairs(route, learned) > 0) {
+    const Status status = writeRouteIndex(route);
+    if (!status.isOk()) return status;
+  }
   return added;
+}
+
+int ExperienceRecorder::measurePairs(Route& route, const std::map<int, std::pair<ImageFeatures, Pose2D>>& learned) {
+  // The teach run's measurement (teach_session.h, measureRouteNoise) on the views this run learned
+  // at consecutive keyframes: the same camera, scene and light on both sides of the pair.
+  const PinholeCamera camera(route.info.camera);
+  const CameraMount mount(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw);
+  int measured = 0;
+  for (const auto& [keyframe, view] : learned) {
+    const auto next = learned.find(keyframe + 1);
+    if (next == learned.end()) continue;
+    const auto registered = registerFeatures(view.first, next->second.first, MatchOptions(),
+                                             RobustHomographyOptions(), &camera);
+    if (!registered) continue;
+    RouteExperience& experience = route.keyframes[static_cast<std::size_t>(keyframe)].experiences.back();
+    experience.match_residual = matchResidualOf(*registered);
+    experience.tilt_to_next =
+        pairTiltOf(*registered, camera, mount.baseToCamera(view.second.inverse().compose(next->second.second)));
+    measured += experience.match_residual || experience.tilt_to_next ? 1 : 0;
+  }
+  return measured;
 }
 
 }  // namespace homography_teach_repeat

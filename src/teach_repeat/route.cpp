@@ -69,6 +69,46 @@ void emitPose(YAML::Emitter& out, const Pose2D& pose) {
       << YAML::EndMap;
 }
 
+// A keyframe's or an experience's measured pair (match_residual, tilt_to_next), where it has one.
+void emitPairMeasurement(YAML::Emitter& out, const std::optional<MatchResidual>& residual,
+                         const std::optional<PairTilt>& tilt) {
+  if (residual) {
+    out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
+        << YAML::Value << residual->rms_px << YAML::Key << "inliers" << YAML::Value << residual->inliers
+        << YAML::EndMap;
+  }
+  if (tilt) {
+    out << YAML::Key << "tilt_to_next" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "pitch"
+        << YAML::Value << tilt->pitch << YAML::Key << "roll" << YAML::Value << tilt->roll << YAML::EndMap;
+  }
+}
+
+// The same read and validated; errors name `owner` ("keyframe 3", "keyframe 3, experience 1").
+void readPairMeasurement(const Reader& reader, const YAML::Node& node, const std::string& owner, int version,
+                         std::optional<MatchResidual>* residual_out, std::optional<PairTilt>* tilt_out) {
+  if (const YAML::Node residual = node["match_residual"]) {
+    const std::string name = owner + ": match_residual";
+    if (version < 3) throw reader.error(residual, name + " needs format_version 3");
+    if (!residual.IsMap()) throw reader.error(residual, name + " must be a map {rms_px, inliers}");
+    MatchResidual measured;
+    measured.rms_px = reader.get<double>(residual, "rms_px");
+    measured.inliers = reader.get<int>(residual, "inliers");
+    if (!std::isfinite(measured.rms_px) || !(measured.rms_px > 0.0)) {
+      throw reader.error(residual, name + ".rms_px must be finite and > 0");
+    }
+    if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
+    *residual_out = measured;
+  }
+  if (const YAML::Node tilt = node["tilt_to_next"]) {
+    const std::string name = owner + ": tilt_to_next";
+    if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
+    if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
+    const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
+    if (!measured.inRange()) throw reader.error(tilt, name + " must be finite and within 0.1 rad");
+    *tilt_out = measured;
+  }
+}
+
 }  // namespace
 
 Expected<RouteWriter> RouteWriter::create(const std::string& directory, const RouteInfo& info,
@@ -199,23 +239,34 @@ Status RouteWriter::setMeasuredNoise(const std::vector<std::optional<MatchResidu
 
 Status RouteWriter::writeIndex() const { return writeRouteIndex(route_); }
 
+namespace {
+// Calls visit(match_residual, tilt_to_next) for every keyframe and every experience of the route.
+template <typename Visit>
+void forEachPairMeasurement(const Route& route, Visit&& visit) {
+  for (const RouteKeyframe& k : route.keyframes) {
+    visit(k.match_residual, k.tilt_to_next);
+    for (const RouteExperience& e : k.experiences) visit(e.match_residual, e.tilt_to_next);
+  }
+}
+}  // namespace
+
 std::optional<double> routeMatchResidual(const Route& route) {
   if (!route.info.match_noise_measured) return std::nullopt;
   std::vector<double> values;
-  for (const RouteKeyframe& k : route.keyframes) {
-    if (k.match_residual) values.push_back(k.match_residual->rms_px);
-  }
+  forEachPairMeasurement(route, [&](const std::optional<MatchResidual>& residual, const std::optional<PairTilt>&) {
+    if (residual) values.push_back(residual->rms_px);
+  });
   return upperMedian(std::move(values));
 }
 
 std::optional<double> routeTiltSigma(const Route& route) {
   if (!route.info.tilt_measured) return std::nullopt;
   std::vector<double> magnitudes;
-  for (const RouteKeyframe& k : route.keyframes) {
-    if (!k.tilt_to_next) continue;
-    magnitudes.push_back(std::abs(k.tilt_to_next->pitch));
-    magnitudes.push_back(std::abs(k.tilt_to_next->roll));
-  }
+  forEachPairMeasurement(route, [&](const std::optional<MatchResidual>&, const std::optional<PairTilt>& tilt) {
+    if (!tilt) return;
+    magnitudes.push_back(std::abs(tilt->pitch));
+    magnitudes.push_back(std::abs(tilt->roll));
+  });
   const std::optional<double> median = upperMedian(std::move(magnitudes));
   if (!median) return std::nullopt;
   return 1.4826 * *median;  // the median of |x| is 0.6745 σ for a zero-mean normal x
@@ -269,16 +320,7 @@ Status writeRouteIndex(const Route& route) {
           << k.plane->normal.x() << k.plane->normal.y() << k.plane->normal.z() << YAML::EndSeq;
       out << YAML::Key << "distance" << YAML::Value << k.plane->distance << YAML::EndMap;
     }
-    if (k.match_residual) {
-      out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
-          << YAML::Value << k.match_residual->rms_px << YAML::Key << "inliers" << YAML::Value
-          << k.match_residual->inliers << YAML::EndMap;
-    }
-    if (k.tilt_to_next) {
-      out << YAML::Key << "tilt_to_next" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "pitch"
-          << YAML::Value << k.tilt_to_next->pitch << YAML::Key << "roll" << YAML::Value << k.tilt_to_next->roll
-          << YAML::EndMap;
-    }
+    emitPairMeasurement(out, k.match_residual, k.tilt_to_next);
     if (!k.experiences.empty()) {
       out << YAML::Key << "experiences" << YAML::Value << YAML::BeginSeq;
       for (const RouteExperience& e : k.experiences) {
@@ -292,6 +334,7 @@ Status writeRouteIndex(const Route& route) {
         out << YAML::Key << "pose_covariance" << YAML::Value << YAML::Flow << covariance;
         out << YAML::Key << "image" << YAML::Value << e.image_file;
         out << YAML::Key << "features" << YAML::Value << e.features_file;
+        emitPairMeasurement(out, e.match_residual, e.tilt_to_next);
         out << YAML::EndMap;
       }
       out << YAML::EndSeq;
@@ -402,27 +445,8 @@ Expected<Route> loadRoute(const std::string& directory) {
         if (valid.code() == StatusCode::kInvalidInput) throw reader.error(plane, valid.message());
         k.plane = p;
       }
-      if (const YAML::Node residual = node["match_residual"]) {
-        const std::string name = "keyframe " + std::to_string(k.index) + ": match_residual";
-        if (version < 3) throw reader.error(residual, name + " needs format_version 3");
-        if (!residual.IsMap()) throw reader.error(residual, name + " must be a map {rms_px, inliers}");
-        MatchResidual measured;
-        measured.rms_px = reader.get<double>(residual, "rms_px");
-        measured.inliers = reader.get<int>(residual, "inliers");
-        if (!std::isfinite(measured.rms_px) || !(measured.rms_px > 0.0)) {
-          throw reader.error(residual, name + ".rms_px must be finite and > 0");
-        }
-        if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
-        k.match_residual = measured;
-      }
-      if (const YAML::Node tilt = node["tilt_to_next"]) {
-        const std::string name = "keyframe " + std::to_string(k.index) + ": tilt_to_next";
-        if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
-        if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
-        const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
-        if (!measured.inRange()) throw reader.error(tilt, name + " must be finite and within 0.1 rad");
-        k.tilt_to_next = measured;
-      }
+      readPairMeasurement(reader, node, "keyframe " + std::to_string(k.index), version, &k.match_residual,
+                          &k.tilt_to_next);
       if (const YAML::Node experiences = node["experiences"]) {
         if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
         if (!experiences.IsSequence()) throw reader.error(experiences, "'experiences' must be a list");
@@ -439,6 +463,9 @@ Expected<Route> loadRoute(const std::string& directory) {
           }
           experience.image_file = reader.get<std::string>(e, "image");
           experience.features_file = reader.get<std::string>(e, "features");
+          readPairMeasurement(reader, e, "keyframe " + std::to_string(k.index) + ", experience " +
+                              std::to_string(experience.id), version, &experience.match_residual,
+                              &experience.tilt_to_next);
           for (const std::string* file : {&experience.image_file, &experience.features_file}) {
             if (!fileExists(routeFilePath(directory, *file))) {
               throw reader.error(e, "experience file '" + routeFilePath(directory, *file) + "' is missing");

@@ -68,15 +68,19 @@ TEST(RepeatNodeLearning, SavesTheViewsItLearnedIntoTheRoute) {
   ASSERT_TRUE(learned.isOk()) << learned.status().toString();
   EXPECT_EQ(learned->loaded_format_version, kRouteFormatVersion);
   int experiences = 0;
+  int measured_pairs = 0;  // learned at consecutive keyframes: measured as the teach run's pairs
   for (std::size_t k = 0; k < learned->keyframes.size(); ++k) {
     for (const auto& e : learned->keyframes[k].experiences) {
       ++experiences;
+      if (e.match_residual) ++measured_pairs;
       EXPECT_LT(std::hypot(e.pose.x - learned->keyframes[k].pose.x, e.pose.y - learned->keyframes[k].pose.y), 0.2);
       EXPECT_GT(e.pose_covariance(0, 0), 0.0);
       EXPECT_TRUE(loadExperienceFeatures(*learned, k, 0).isOk());
     }
   }
   EXPECT_GE(experiences, 3);
+  EXPECT_GE(measured_pairs, 1);
+  EXPECT_TRUE(routeMatchResidual(*learned).has_value());
   std_srvs::Trigger again;
   ASSERT_TRUE(ros::service::call("repeat_node/save_experiences", again));
   EXPECT_NE(again.response.message.find("added 0 learned view"), std::string::npos) << again.response.message;

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "homography_teach_repeat/teach_repeat/experience_learning.h"
 #include "support/synthetic_route.h"
@@ -74,5 +77,82 @@ TEST(ExperienceRecorder, CommitsItsCandidatesToTheRoute) {
   const auto features = loadExperienceFeatures(*reloaded, 1, 0);
   ASSERT_TRUE(features.isOk()) << features.status().toString();
   EXPECT_GT(features->keypoints.size(), 50u);
+  std::filesystem::remove_all(directory);
+}
+
+// A run that learns at consecutive keyframes measures each pair of its views as the teach run
+// measured its keyframes (match residual, tilt to the next): the route's measured noise then takes
+// in what the learning run saw. Here its camera is noisier than the teach run's, and the route's
+// residual grows; a reload keeps the measurements, and a corrupt one is refused naming the
+// keyframe and the experience.
+TEST(ExperienceRecorder, MeasuresTheNoiseOfTheViewsItLearned) {
+  const test_support::SyntheticWall wall;
+  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kOrb, 16);
+  auto route = loadRoute(directory);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  ASSERT_TRUE(routeMatchResidual(*route).has_value());
+  const double taught = *routeMatchResidual(*route);
+  std::vector<Pose2D> poses;
+  for (const auto& k : route->keyframes) poses.push_back(k.pose);
+  ASSERT_GE(poses.size(), 4u);
+  ExperienceRecorder recorder(poses, ExperienceLearningOptions());
+  cv::RNG rng(7);
+  for (const Pose2D& pose : poses) {
+    ExperienceObservation o = observation(pose);
+    cv::Mat image;
+    wall.imageAt(rep103ToCameraAxes(pose)).convertTo(image, CV_32F);
+    cv::Mat noise(image.size(), CV_32F);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 12.0);
+    image += noise;
+    image.convertTo(o.image, CV_8U);  // saturated
+    recorder.observe(o);
+  }
+  ASSERT_EQ(recorder.candidates().size(), poses.size());
+  FeatureExtractor extractor(FeatureOptions{FeatureType::kOrb, kRouteMaxFeatures});
+  const auto added = recorder.commit(*route, extractor);
+  ASSERT_TRUE(added.isOk()) << added.status().toString();
+  int measured = 0;
+  for (std::size_t k = 0; k + 1 < poses.size(); ++k) {
+    ASSERT_EQ(route->keyframes[k].experiences.size(), 1u);
+    const RouteExperience& e = route->keyframes[k].experiences.front();
+    if (e.match_residual) ++measured;
+    if (e.tilt_to_next) {
+      EXPECT_LT(std::abs(e.tilt_to_next->pitch), 0.01);  // the images are level
+      EXPECT_LT(std::abs(e.tilt_to_next->roll), 0.01);
+    }
+  }
+  EXPECT_FALSE(route->keyframes.back().experiences.front().match_residual.has_value());  // no next one
+  EXPECT_GE(measured, static_cast<int>(poses.size()) - 2);
+  ASSERT_TRUE(routeMatchResidual(*route).has_value());
+  EXPECT_GT(*routeMatchResidual(*route), taught);
+
+  auto reloaded = loadRoute(directory);
+  ASSERT_TRUE(reloaded.isOk()) << reloaded.status().toString();
+  EXPECT_DOUBLE_EQ(*routeMatchResidual(*reloaded), *routeMatchResidual(*route));
+  EXPECT_EQ(routeTiltSigma(*reloaded), routeTiltSigma(*route));
+
+  // One experience's residual made non-finite in the index.
+  const std::string index = directory + "/route.yaml";
+  std::ifstream in(index);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  std::size_t at = std::string::npos;
+  for (std::size_t line = 0; line < yaml.size();) {
+    const std::size_t end = yaml.find('\n', line);
+    const std::string row = yaml.substr(line, end - line);
+    if (row.find("- {id:") != std::string::npos && row.find("rms_px: ") != std::string::npos) {
+      at = line + row.find("rms_px: ") + 8;
+      break;
+    }
+    line = end == std::string::npos ? yaml.size() : end + 1;
+  }
+  ASSERT_NE(at, std::string::npos) << yaml;
+  yaml.replace(at, yaml.find(',', at) - at, ".nan");
+  std::ofstream(index) << yaml;
+  const auto corrupt = loadRoute(directory);
+  ASSERT_FALSE(corrupt.isOk());
+  EXPECT_NE(corrupt.status().message().find("experience 1: match_residual.rms_px must be finite"), std::string::npos)
+      << corrupt.status().message();
   std::filesystem::remove_all(directory);
 }

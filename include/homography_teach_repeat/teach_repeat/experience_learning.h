@@ -15,6 +15,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/features/feature_extractor.h"
@@ -65,11 +66,19 @@ class ExperienceRecorder {
   std::map<int, double> candidates() const;
 
   // Adds every candidate to `route` as an experience of its keyframe (features extracted with
-  // `extractor`, of the route's type) and forgets them. Returns how many were added; the first
-  // failure (a write, the features) is returned instead, the experiences added before it stay.
+  // `extractor`, of the route's type) and forgets them. The candidates of consecutive keyframes are
+  // then registered as the teach run registers its keyframe pairs, and each such experience keeps
+  // its match residual and tilt to the next (route.h, RouteExperience): the route's measured noise
+  // takes in what this run saw (docs/route_format.md, "Measured noise"). Returns how many were
+  // added; the first failure (a write, the features) is returned instead, the experiences added
+  // before it stay.
   Expected<int> commit(Route& route, FeatureExtractor& extractor);
 
  private:
+  // The pairs of `learned` (features and pose by keyframe) at consecutive keyframes measured into
+  // their experiences (each keyframe's last); returns how many got a measurement.
+  static int measurePairs(Route& route, const std::map<int, std::pair<ImageFeatures, Pose2D>>& learned);
+
   struct Candidate {
     ExperienceObservation observation;
     double distance = 0.0;  // [m] to the keyframe's pose

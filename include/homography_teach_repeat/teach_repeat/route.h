@@ -29,7 +29,9 @@
 //          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
 //             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
 //             image: keyframes/NNNNNN.e1.png,             # it, with its covariance (x, y, yaw,
-//             features: keyframes/NNNNNN.e1.features.yml}] # row-major)
+//             features: keyframes/NNNNNN.e1.features.yml, # row-major); match_residual and
+//             match_residual: ..., tilt_to_next: ...}]    # tilt_to_next (optional) against the
+//                                                         # next keyframe's experience of its run
 // Loading validates everything and names the file and the problem on any error.
 #pragma once
 
@@ -80,6 +82,11 @@ struct RouteExperience {
   Eigen::Matrix3d pose_covariance = Eigen::Matrix3d::Zero();  // (x, y, yaw)
   std::string image_file;     // relative to the route directory
   std::string features_file;
+  // Measured by the run that learned it, against the next keyframe's experience learned in the same
+  // run (ExperienceRecorder::commit): the same pair quantities as a keyframe's, so the route's
+  // measured noise takes in the views its learning runs saw (docs/route_format.md, "Measured noise").
+  std::optional<MatchResidual> match_residual;
+  std::optional<PairTilt> tilt_to_next;
 };
 
 struct RouteKeyframe {
@@ -115,12 +122,13 @@ struct Route {
   int loaded_format_version = kRouteFormatVersion;  // as found on disk (1-3: not yet migrated)
 };
 
-// The route's match residual: the median over its keyframes' rms_px [px]; nullopt when not measured
-// or no keyframe has one.
+// The route's match residual: the median over its keyframes' and experiences' rms_px [px]; nullopt
+// when not measured or none has one.
 std::optional<double> routeMatchResidual(const Route& route);
 // The std of the relative tilt between two views of the route [rad]: 1.4826 × the median of the
-// keyframe pairs' |pitch| and |roll| (a robust std of a zero-mean spread: a pair at a corner whose
-// homography mixes two surfaces does not set it); nullopt when not measured or no pair has one.
+// keyframe (and experience) pairs' |pitch| and |roll| (a robust std of a zero-mean spread: a pair at
+// a corner whose homography mixes two surfaces does not set it); nullopt when not measured or no
+// pair has one.
 std::optional<double> routeTiltSigma(const Route& route);
 
 // Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed

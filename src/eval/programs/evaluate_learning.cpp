@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <vector>
 
 #include "homography_teach_repeat/common/command_line.h"
@@ -165,6 +166,8 @@ int main(int argc, char** argv) {
     cv::RNG learn_rng(static_cast<std::uint64_t>(args.integer("seed")));
     const Pass learning = run(*taught, options, *changed, renderer, gain, learn_path, learn_rng, &recorder);
     FeatureExtractor extractor(FeatureOptions{taught->info.feature_type, options.localization.max_features});
+    const std::optional<double> residual_taught = routeMatchResidual(*learned);
+    const std::optional<double> tilt_taught = routeTiltSigma(*learned);
     const auto added = recorder.commit(*learned, extractor);
     if (!added) throw std::runtime_error(added.status().message());
     auto reloaded = loadRoute(learned_directory.string());  // as a repeat node would read it
@@ -187,6 +190,15 @@ int main(int argc, char** argv) {
     doc["frames"] = test_path.size();
     doc["learning_run_localized"] = learning.localized();
     doc["experiences_added"] = *added;
+    // The route's measured noise before and after the learning run (its learned pairs, route_format.md).
+    doc["match_residual_px"] = {{"taught", residual_taught.value_or(0.0)},
+                                {"learned", routeMatchResidual(*reloaded).value_or(0.0)}};
+    doc["tilt_sigma_rad"] = {{"taught", tilt_taught.value_or(0.0)}, {"learned", routeTiltSigma(*reloaded).value_or(0.0)}};
+    int measured_pairs = 0;
+    for (const auto& k : reloaded->keyframes) {
+      for (const auto& e : k.experiences) measured_pairs += e.match_residual ? 1 : 0;
+    }
+    doc["experiences_measured"] = measured_pairs;
     doc["localized_taught_once"] = once.localized();
     doc["localized_learned"] = after.localized();
     int by_experience = 0;

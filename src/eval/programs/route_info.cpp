@@ -150,11 +150,21 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                          {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
   for (const KeyframeAudit& a : audit->keyframes) {
     nlohmann::json k = toJson(a);
-    const auto& measured = route.keyframes[static_cast<std::size_t>(a.keyframe)].match_residual;
-    k["match_residual"] = measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}}
-                                   : nlohmann::json();
-    const auto& tilt = route.keyframes[static_cast<std::size_t>(a.keyframe)].tilt_to_next;
-    k["tilt_to_next"] = tilt ? nlohmann::json{{"pitch_rad", tilt->pitch}, {"roll_rad", tilt->roll}} : nlohmann::json();
+    const RouteKeyframe& keyframe = route.keyframes[static_cast<std::size_t>(a.keyframe)];
+    auto residualJson = [](const std::optional<MatchResidual>& measured) {
+      return measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}} : nlohmann::json();
+    };
+    auto tiltJson = [](const std::optional<PairTilt>& tilt) {
+      return tilt ? nlohmann::json{{"pitch_rad", tilt->pitch}, {"roll_rad", tilt->roll}} : nlohmann::json();
+    };
+    k["match_residual"] = residualJson(keyframe.match_residual);
+    k["tilt_to_next"] = tiltJson(keyframe.tilt_to_next);
+    // The learned views' own pair measurements (ExperienceRecorder::commit), in the route's noise too.
+    k["experiences"] = nlohmann::json::array();
+    for (const RouteExperience& e : keyframe.experiences) {
+      k["experiences"].push_back({{"id", e.id}, {"stamp", e.stamp}, {"match_residual", residualJson(e.match_residual)},
+                                  {"tilt_to_next", tiltJson(e.tilt_to_next)}});
+    }
     if (static_cast<std::size_t>(a.keyframe) < shift.size()) {
       const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
       k["shift_heading"] = {{"features", h.features}, {"neighbour", h.neighbour}, {"support", h.support},
