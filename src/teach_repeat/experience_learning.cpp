@@ -7,7 +7,6 @@
 #include <stdexcept>
 #include <utility>
 
-#include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 
 namespace homography_teach_repeat {
@@ -108,14 +107,12 @@ int ExperienceRecorder::measurePairs(Route& route, const std::map<int, std::pair
   for (const auto& [keyframe, view] : learned) {
     const auto next = learned.find(keyframe + 1);
     if (next == learned.end()) continue;
-    const auto registered = registerFeatures(view.first, next->second.first, MatchOptions(),
-                                             RobustHomographyOptions(), &camera);
-    if (!registered) continue;
+    const PairMeasurement pair =
+        measureViewPair(view.first, next->second.first, view.second, next->second.second, camera, mount);
     RouteExperience& experience = route.keyframes[static_cast<std::size_t>(keyframe)].experiences.back();
-    experience.match_residual = matchResidualOf(*registered);
-    experience.tilt_to_next =
-        pairTiltOf(*registered, camera, mount.baseToCamera(view.second.inverse().compose(next->second.second)));
-    measured += experience.match_residual || experience.tilt_to_next ? 1 : 0;
+    experience.match_residual = pair.match_residual;
+    experience.tilt_to_next = pair.tilt_to_next;
+    measured += pair.match_residual || pair.tilt_to_next ? 1 : 0;
   }
   return measured;
 }

@@ -175,6 +175,18 @@ std::optional<PairTilt> pairTiltOf(const RegistrationResult& registered, const P
   return PairTilt{estimated->pitch, estimated->roll};
 }
 
+PairMeasurement measureViewPair(const ImageFeatures& first, const ImageFeatures& second, const Pose2D& first_pose,
+                                const Pose2D& second_pose, const PinholeCamera& camera, const CameraMount& mount,
+                                const MatchOptions& matching, const RobustHomographyOptions& robust) {
+  PairMeasurement measured;
+  const auto registered = registerFeatures(first, second, matching, robust, &camera);
+  if (!registered) return measured;
+  measured.match_residual = matchResidualOf(*registered);
+  measured.tilt_to_next =
+      pairTiltOf(*registered, camera, mount.baseToCamera(first_pose.inverse().compose(second_pose)));
+  return measured;
+}
+
 Status measureRouteNoise(Route& route, const MatchOptions& matching, const RobustHomographyOptions& robust) {
   const PinholeCamera camera(route.info.camera);
   const CameraMount mount(route.info.camera_mount.x, route.info.camera_mount.y, route.info.camera_mount.yaw);
@@ -187,13 +199,11 @@ Status measureRouteNoise(Route& route, const MatchOptions& matching, const Robus
     auto loaded = loadKeyframeFeatures(route, k);
     if (!loaded) return loaded.status();
     if (k > 0) {
-      const auto registered = registerFeatures(current, *loaded, matching, robust, &camera);
       RouteKeyframe& previous = route.keyframes[k - 1];
-      if (registered) {
-        previous.match_residual = matchResidualOf(*registered);
-        previous.tilt_to_next = pairTiltOf(
-            *registered, camera, mount.baseToCamera(previous.pose.inverse().compose(route.keyframes[k].pose)));
-      }
+      const PairMeasurement pair =
+          measureViewPair(current, *loaded, previous.pose, route.keyframes[k].pose, camera, mount, matching, robust);
+      previous.match_residual = pair.match_residual;
+      previous.tilt_to_next = pair.tilt_to_next;
     }
     current = std::move(*loaded);
   }

@@ -113,6 +113,19 @@ std::optional<MatchResidual> matchResidualOf(const RegistrationResult& registere
 std::optional<PairTilt> pairTiltOf(const RegistrationResult& registered, const PinholeCamera& camera,
                                    const PlanarPose& camera_motion);
 
+// Two views of the route, taken at base poses `first_pose` and `second_pose` (route frame), measured
+// as a pair: `first`'s features registered to `second`'s with `matching` and `robust`, undistorted
+// by `camera`, and the inliers' match residual and the second camera's tilt (matchResidualOf,
+// pairTiltOf; the motion from the poses and `mount`). Both empty when the pair does not register.
+// measureRouteNoise's keyframe pairs and ExperienceRecorder::commit's learned pairs.
+struct PairMeasurement {
+  std::optional<MatchResidual> match_residual;
+  std::optional<PairTilt> tilt_to_next;
+};
+PairMeasurement measureViewPair(const ImageFeatures& first, const ImageFeatures& second, const Pose2D& first_pose,
+                                const Pose2D& second_pose, const PinholeCamera& camera, const CameraMount& mount,
+                                const MatchOptions& matching = {}, const RobustHomographyOptions& robust = {});
+
 // Measures a route's match noise and tilt from its stored keyframes, as the teach run does (each
 // keyframe's features matched to the next's with `matching` and `robust`, undistorted by the
 // route's camera; the motion from the keyframes' poses and the camera mount), and sets them in

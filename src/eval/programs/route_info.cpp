@@ -148,15 +148,15 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
                        {"max_alias_ratio", options.max_alias_ratio}, {"min_lines", options.min_lines}};
   document["summary"] = {{"keyframes", audit->keyframes.size()}, {"weak_for_fast_hd", audit->weak_for_fast_hd},
                          {"weak_for_mu", audit->weak_for_mu}, {"notes", audit->notes}};
+  const auto residualJson = [](const std::optional<MatchResidual>& measured) {
+    return measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}} : nlohmann::json();
+  };
+  const auto tiltJson = [](const std::optional<PairTilt>& tilt) {
+    return tilt ? nlohmann::json{{"pitch_rad", tilt->pitch}, {"roll_rad", tilt->roll}} : nlohmann::json();
+  };
   for (const KeyframeAudit& a : audit->keyframes) {
     nlohmann::json k = toJson(a);
     const RouteKeyframe& keyframe = route.keyframes[static_cast<std::size_t>(a.keyframe)];
-    auto residualJson = [](const std::optional<MatchResidual>& measured) {
-      return measured ? nlohmann::json{{"rms_px", measured->rms_px}, {"inliers", measured->inliers}} : nlohmann::json();
-    };
-    auto tiltJson = [](const std::optional<PairTilt>& tilt) {
-      return tilt ? nlohmann::json{{"pitch_rad", tilt->pitch}, {"roll_rad", tilt->roll}} : nlohmann::json();
-    };
     k["match_residual"] = residualJson(keyframe.match_residual);
     k["tilt_to_next"] = tiltJson(keyframe.tilt_to_next);
     // The learned views' own pair measurements (ExperienceRecorder::commit), in the route's noise too.
