@@ -129,6 +129,8 @@ class FastHdEstimator final : public PointEstimator {
     PlanarPoseEstimatorOptions pose_options = options.pose;
     pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
     pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);
+    // The pixel σ: the route's, scaled by how closely this keyframe matched its neighbours.
+    pose_options.pixel_sigma_px *= reference.pixel_noise_scale;
     const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, pose_options);
     if (!pose) return pose.status();
     *inliers = pose->inliers;

@@ -18,6 +18,25 @@ namespace homography_teach_repeat {
 namespace {
 constexpr double kTurnKeyframeAngle = 0.1;  // [rad]
 constexpr double kTurnKeyframeRate = 1.0;   // [rad/m]
+
+// RepeatOptions::pixel_noise_per_keyframe: the RMS residual of the measured pairs that include
+// keyframe k (k-1 -> k and k -> k+1) over the route's (routeMatchResidual), within [0.5, 2]: a
+// corner's pair can see two walls, and its residual says more of that than of the pixels.
+double keyframeNoiseScale(const Route& route, std::size_t k) {
+  constexpr double kSmallest = 0.5;
+  constexpr double kLargest = 2.0;
+  const std::optional<double> route_residual = routeMatchResidual(route);
+  if (!route_residual) return 1.0;
+  double squares = 0.0;
+  int pairs = 0;
+  for (const std::size_t j : {k - 1, k}) {  // (k - 1 wraps for k = 0: out of range)
+    if (j >= route.keyframes.size() || !route.keyframes[j].match_residual) continue;
+    squares += std::pow(route.keyframes[j].match_residual->rms_px, 2);
+    ++pairs;
+  }
+  if (pairs == 0) return 1.0;
+  return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
+}
 }  // namespace
 
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
@@ -56,6 +75,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       if (!features) return features.status();
       reference.features = std::move(*features);
     }
+    if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframeNoiseScale(route, k);
     if (k > 0) {
       // A corner keyframe: reached turning, or where the teach run started turning (its heading is
       // the straight segment's, but the walls of the corner are as near).
@@ -102,6 +122,7 @@ Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mou
       reference.plane_normal_sigma_rad = keyframe.plane_normal_sigma_rad;
       reference.plane_distance_sigma = keyframe.plane_distance_sigma;
       reference.turn = keyframe.turn;
+      reference.pixel_noise_scale = keyframe.pixel_noise_scale;
       reference.experience = learned.id;
       experiences_[k].push_back(std::move(reference));
     }
@@ -147,24 +168,36 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     double angle = 0.0, distance = 0.0;
     bool otherSurface() const { return angle > kOtherSurface || distance > kOtherSurface; }
   };
+  // Closer than this (normal [rad] and relative distance), a neighbour's plane is this plane
+  // carried by the taught motion (the straighter pair's, a turn in place's: docs/math.md §2.6),
+  // not a second estimate: agreeing with it says nothing.
+  constexpr double kCopy = 1e-6;
   const int n = size();
+  const auto disagreement = [&](const KeyframeReference& reference, const KeyframeReference& neighbour) {
+    // This keyframe's camera in the neighbour's camera frame.
+    const PlanarPose here = mount.baseToCamera(neighbour.base_pose.inverse().compose(reference.base_pose));
+    const auto carried = transferPlane(*neighbour.plane, here);
+    // The neighbour's plane behind this camera: as far off as can be.
+    Disagreement d{kLargest * std::sqrt(2.0), kLargest * std::sqrt(2.0)};
+    if (carried) {
+      d.angle = std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0));
+      d.distance = std::abs(carried->distance - reference.plane->distance) / reference.plane->distance;
+    }
+    return d;
+  };
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;
     std::vector<Disagreement> neighbours;
-    for (const int j : {k - 1, k + 1}) {
-      if (j < 0 || j >= n || !keyframes_[static_cast<std::size_t>(j)].plane) continue;
-      const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
-      // This keyframe's camera in the neighbour's camera frame.
-      const PlanarPose here = mount.baseToCamera(neighbour.base_pose.inverse().compose(reference.base_pose));
-      const auto carried = transferPlane(*neighbour.plane, here);
-      // The neighbour's plane behind this camera: as far off as can be.
-      Disagreement d{kLargest * std::sqrt(2.0), kLargest * std::sqrt(2.0)};
-      if (carried) {
-        d.angle = std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0));
-        d.distance = std::abs(carried->distance - reference.plane->distance) / reference.plane->distance;
+    for (const int step : {-1, 1}) {
+      // The nearest keyframe on this side whose plane is an estimate of its own: a run of copies
+      // is one estimate, compared with the keyframes beyond it.
+      for (int j = k + step; j >= 0 && j < n && keyframes_[static_cast<std::size_t>(j)].plane; j += step) {
+        const Disagreement d = disagreement(reference, keyframes_[static_cast<std::size_t>(j)]);
+        if (d.angle < kCopy && d.distance < kCopy) continue;
+        neighbours.push_back(d);
+        break;
       }
-      neighbours.push_back(d);
     }
     if (neighbours.empty()) continue;
     // Where one neighbour sees the same surface and the other another one (a wall's end), the

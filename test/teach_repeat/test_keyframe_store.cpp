@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/waypoint_driver.h"
@@ -292,5 +293,77 @@ TEST(KeyframeStore, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError)
   ASSERT_TRUE(odd.isOk()) << odd.status().toString();
   EXPECT_GT(odd->at(1).plane_normal_sigma_rad, 0.4);
   EXPECT_NEAR(odd->at(2).plane_normal_sigma_rad, agreeing->at(2).plane_normal_sigma_rad, 0.01);
+  std::filesystem::remove_all(directory);
+}
+
+// A keyframe's plane carried from its neighbour's (the straighter pair's, a turn in place's:
+// docs/math.md §2.6) is a copy, not a second estimate: agreeing with it says nothing of the plane's
+// error. A run of copies is compared with the keyframes beyond it. On KITTI 07 the first keyframe's
+// plane was copied to the second, both had σ 0, and the first ten frames' fixes, 5 % off in
+// distance, claimed centimetres (NEES up to 27).
+TEST(KeyframeStore, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
+  const test_support::SyntheticWall wall;
+  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
+  const auto taught = loadRoute(directory);
+  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
+  ASSERT_GE(taught->keyframes.size(), 4u);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_feature_tolerance_px = 0.0;  // the planes alone
+  options.plane_sigma_from_neighbours = true;
+  Route route = *taught;
+  const Pose2D& m = route.info.camera_mount;
+  const CameraMount mount(m.x, m.y, m.yaw);
+  // Keyframe 1 gets keyframe 0's plane; keyframe 2's is turned by 0.2 rad about the vertical.
+  const auto copied = transferPlane(*route.keyframes[0].plane,
+                                    mount.baseToCamera(route.keyframes[0].pose.inverse().compose(route.keyframes[1].pose)));
+  ASSERT_TRUE(copied.isOk()) << copied.status().toString();
+  route.keyframes[1].plane = *copied;
+  ScenePlane& turned = *route.keyframes[2].plane;
+  const double c = std::cos(0.2), s = std::sin(0.2);
+  turned.normal = Eigen::Vector3d(c * turned.normal.x() - s * turned.normal.z(), turned.normal.y(),
+                                  s * turned.normal.x() + c * turned.normal.z()).normalized();
+  const auto store = KeyframeStore::load(route, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  // Both copies against keyframe 2: the 0.2 rad, shared as two estimates' difference (/√2).
+  EXPECT_NEAR(store->at(0).plane_normal_sigma_rad, 0.2 / std::sqrt(2.0), 0.02);
+  EXPECT_NEAR(store->at(1).plane_normal_sigma_rad, 0.2 / std::sqrt(2.0), 0.02);
+  std::filesystem::remove_all(directory);
+}
+
+// RepeatOptions::pixel_noise_per_keyframe (docs/math.md §3.9): each keyframe's pixel σ is the
+// route's scaled by the RMS residual of the teach run's pairs that include it over the route's,
+// within [0.5, 2]; without a measurement, or with the option off, 1.
+TEST(KeyframeStore, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidual) {
+  const test_support::SyntheticWall wall;
+  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
+  const auto taught = loadRoute(directory);
+  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
+  const std::size_t n = taught->keyframes.size();
+  ASSERT_GE(n, 6u);
+  Route route = *taught;
+  route.info.match_noise_measured = true;
+  for (RouteKeyframe& keyframe : route.keyframes) keyframe.match_residual = MatchResidual{0.3, 100};
+  route.keyframes[1].match_residual = MatchResidual{1.2, 100};  // pair 1 -> 2
+  route.keyframes[4].match_residual = MatchResidual{0.1, 100};  // pair 4 -> 5
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_feature_tolerance_px = 0.0;
+  const auto store = KeyframeStore::load(route, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  EXPECT_NEAR(store->at(0).pixel_noise_scale, 1.0, 1e-9);  // pair 0 -> 1 alone
+  EXPECT_NEAR(store->at(1).pixel_noise_scale, 2.0, 1e-9);  // √((0.3² + 1.2²)/2) / 0.3 = 2.9, capped
+  EXPECT_NEAR(store->at(2).pixel_noise_scale, 2.0, 1e-9);
+  EXPECT_NEAR(store->at(3).pixel_noise_scale, 1.0, 1e-9);
+  EXPECT_NEAR(store->at(4).pixel_noise_scale, std::sqrt((0.09 + 0.01) / 2.0) / 0.3, 1e-9);
+  options.pixel_noise_per_keyframe = false;
+  const auto off = KeyframeStore::load(route, options);
+  ASSERT_TRUE(off.isOk()) << off.status().toString();
+  for (std::size_t k = 0; k < n; ++k) EXPECT_EQ(off->at(static_cast<int>(k)).pixel_noise_scale, 1.0) << k;
+  options.pixel_noise_per_keyframe = true;
+  route.info.match_noise_measured = false;  // a route taught before the measurement
+  const auto unmeasured = KeyframeStore::load(route, options);
+  ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
+  EXPECT_EQ(unmeasured->at(1).pixel_noise_scale, 1.0);
   std::filesystem::remove_all(directory);
 }

@@ -303,13 +303,14 @@ TEST_F(RepeatPipelineTest, ReconfigureKeepsTheTrackedKeyframe) {
   EXPECT_EQ(pipeline->options().localization.min_inliers, mu.min_inliers);
 }
 
-// hybrid: one filter takes the Fast-HD pose of every frame (the synthetic route has a plane at
-// every keyframe) and the μ fixes where the lines give them; the published pose is the filter's,
-// its covariance no larger than a single Fast-HD pose's, and the heading stays far closer to the
-// truth than the odometry's.
+// hybrid with hybrid_fuse_both: one filter takes the Fast-HD pose of every frame (the synthetic
+// route has a plane at every keyframe) and the μ fixes where the lines give them; the published
+// pose is the filter's, its covariance no larger than a single Fast-HD pose's, and the heading
+// stays far closer to the truth than the odometry's.
 TEST_F(RepeatPipelineTest, HybridFusesFastHdAndMuInOneFilter) {
   RepeatPipelineOptions options;
   options.localization.mode = RepeatMode::kHybrid;
+  options.hybrid_fuse_both = true;
   auto pipeline = RepeatPipeline::create(route(), options);
   ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
   EXPECT_TRUE(pipeline->hybridNotes().empty()) << pipeline->hybridNotes();
@@ -343,6 +344,23 @@ TEST_F(RepeatPipelineTest, HybridFusesFastHdAndMuInOneFilter) {
 // the integrity turns DEGRADED when no fix came for degraded_time_without_fix and LOST (no pose)
 // beyond max_unaided_distance; uncovered, the search finds the route again where the odometry
 // says the robot now is, and the pose is OK again.
+// hybrid by default (hybrid_fuse_both false): a μ fix only in a frame without a Fast-HD pose; beside
+// a pose it is measured through the same plane, and the filter would take its error as independent.
+TEST_F(RepeatPipelineTest, HybridTakesMuOnlyWhereThereIsNoPose) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  ASSERT_FALSE(options.hybrid_fuse_both);
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  int fast_hd_fixes = 0;
+  driveWithBiasedOdometry(*pipeline, [&](int step, const Pose2D&, const Pose2D&, const RepeatFrameResult& result) {
+    if (result.fixes.find("fast_hd") == std::string::npos) return;
+    ++fast_hd_fixes;
+    EXPECT_EQ(result.fixes.find("mu"), std::string::npos) << step << ": " << result.fixes;
+  });
+  EXPECT_GE(fast_hd_fixes, 12);
+}
+
 TEST_F(RepeatPipelineTest, HybridBridgesACoveredCameraAndRecovers) {
   RepeatPipelineOptions options;
   options.localization.mode = RepeatMode::kHybrid;

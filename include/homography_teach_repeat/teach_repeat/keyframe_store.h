@@ -33,6 +33,10 @@ struct KeyframeReference {
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
+  // This keyframe's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe): the RMS
+  // match residual of the teach run's pairs that include it over the route's, within [0.5, 2]; 1
+  // where not measured.
+  double pixel_noise_scale = 1.0;
   int experience = 0;                  // 0: a taught view; k > 0: the keyframe's experience k
 };
 

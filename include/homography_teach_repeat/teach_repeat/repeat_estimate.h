@@ -71,11 +71,14 @@ struct RepeatOptions {
   // fast_hd: the covariance's pixel σ from the route's own images: this gain times the match
   // residual the teach run measured (route.h, routeMatchResidual; docs/math.md §3.9), instead of
   // pose.pixel_sigma_px, which stays for a route without one (format 1-2) and for a gain of 0.
-  // [0-10] 1.5: the σ the covariance needs is larger than the residual of neighbouring keyframes'
-  // inliers about their homography (the inliers are the closer matches, the rest of the model is
-  // not exact); 1.5 brings the simulator's room (residual 0.18 px) and KITTI 07 (0.34 px) to the
-  // σ each was consistent with (0.30 and 0.5 px; docs/evaluation.md).
-  double match_residual_gain = 1.5;
+  // [0-10] 0.75: with iid noise the residual is twice σ (docs/math.md §3.9); the inliers are the
+  // closer matches and the model is not exact, so the σ the covariance needs is 1.5 times that
+  // (KITTI 07, fountain-P11 and its eight-view subset, measured 2026-12-04, docs/evaluation.md).
+  double match_residual_gain = 0.75;
+  // fast_hd: each keyframe's pixel σ scaled by its own measured residual (the teach run's pairs
+  // that include it) over the route's, within [0.5, 2] (docs/math.md §3.9): a corner's keyframe
+  // matches its neighbours less closely than a straight's.
+  bool pixel_noise_per_keyframe = true;
   // fast_hd: the prior σ of the current camera's tilt (pose.tilt_sigma_rad, a nuisance pair of the
   // refinement, docs/math.md §1.10) from the route's own images: this gain times the std of the
   // relative tilt the teach run measured between its keyframes (route.h, routeTiltSigma), instead

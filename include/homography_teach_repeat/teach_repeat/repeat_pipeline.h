@@ -54,8 +54,10 @@ struct RepeatPipelineOptions {
   // 0: never (no pose without a fix).
   double max_unaided_distance = 3.0;
   // hybrid: also take the μ fix in a frame whose Fast-HD pose was accepted (false: μ only where
-  // there is no pose).
-  bool hybrid_fuse_both = true;
+  // there is no pose). Both are measured through the keyframe's plane, so their errors are not
+  // independent as the filter takes them: beside a pose of an uncertain plane the μ fix moved
+  // KITTI 07's estimate 1.4 m (docs/math.md §7.1).
+  bool hybrid_fuse_both = false;
   // hybrid: no Fast-HD pose from the keyframes where the teach run turned
   // (RepeatOptions::skip_turn_keyframes_for_poses); the filter turns on odometry and μ there.
   // Off: in the simulator's gallery it made things worse (2 laps: 13 poses more than 0.3 m or 5°
