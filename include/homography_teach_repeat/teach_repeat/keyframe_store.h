@@ -74,7 +74,8 @@ class KeyframeStore {
   // (transferPlane): the two estimates differ by √2 σ when both have σ, so σ = RMS difference / √2
   // over the neighbours (normal angle [rad], distance relative to the plane's), clamped to 0.5. A
   // neighbour that sees another surface (more than 0.6 rad or 60 % off) counts only when no
-  // neighbour agrees: at a corner of a building it sees the next wall (docs/math.md §3.6).
+  // neighbour agrees: at a corner of a building it sees the next wall (docs/math.md §3.6). A
+  // neighbour whose plane is this one carried (a copy, within 1e-6) is passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount);
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
   void triangulateLines(const PinholeCamera& camera, const CameraMount& mount, const LineLandmarkOptions& options);
