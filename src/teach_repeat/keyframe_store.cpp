@@ -20,12 +20,12 @@ constexpr double kTurnKeyframeAngle = 0.1;  // [rad]
 constexpr double kTurnKeyframeRate = 1.0;   // [rad/m]
 
 // RepeatOptions::pixel_noise_per_keyframe: the RMS residual of the measured pairs that include
-// keyframe k (k-1 -> k and k -> k+1) over the route's (routeMatchResidual), within [0.5, 2]: a
-// corner's pair can see two walls, and its residual says more of that than of the pixels.
-double keyframeNoiseScale(const Route& route, std::size_t k) {
+// keyframe k (k-1 -> k and k -> k+1) over the route's (`route_residual`, routeMatchResidual),
+// within [0.5, 2]: a corner's pair can see two walls, and its residual says more of that than of
+// the pixels.
+double keyframeNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual) {
   constexpr double kSmallest = 0.5;
   constexpr double kLargest = 2.0;
-  const std::optional<double> route_residual = routeMatchResidual(route);
   if (!route_residual) return 1.0;
   double squares = 0.0;
   int pairs = 0;
@@ -57,6 +57,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
                   "hybrid mode loads a fast_hd and a mu store (RepeatPipeline), not one of its own");
   }
   KeyframeStore store;
+  const std::optional<double> route_residual = routeMatchResidual(route);  // once: a median over the route
   for (std::size_t k = 0; k < route.keyframes.size(); ++k) {
     KeyframeReference reference;
     reference.base_pose = route.keyframes[k].pose;
@@ -75,7 +76,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       if (!features) return features.status();
       reference.features = std::move(*features);
     }
-    if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframeNoiseScale(route, k);
+    if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframeNoiseScale(route, k, route_residual);
     if (k > 0) {
       // A corner keyframe: reached turning, or where the teach run started turning (its heading is
       // the straight segment's, but the walls of the corner are as near).
