@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/eval/recorded_sequence.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
@@ -9,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 namespace homography_teach_repeat {
@@ -66,6 +68,31 @@ void setLevelGroundTruth(const LevelTrajectory& level, RecordedSequence* sequenc
       "level camera = base_link; constant mount tilt: the first frame's tilt from the ground truth's gravity";
 }
 
+// The normal of the plane the camera centres move in (least squares), signed like `mean_down`;
+// none where the centres do not span a plane (fewer than three, on a line, or spread across the
+// best plane by more than kThickest of their spread along its second axis: a normal uncertain by
+// more than about 3°) or where that plane is steeper than a floor (kSteepest from `mean_down`).
+std::optional<Eigen::Vector3d> motionPlaneNormal(const std::vector<Eigen::Vector3d>& centres,
+                                                 const Eigen::Vector3d& mean_down) {
+  constexpr double kThickest = 0.05;
+  constexpr double kSteepest = 0.26;  // [rad] (15°)
+  if (centres.size() < 3) return std::nullopt;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& c : centres) mean += c;
+  mean /= static_cast<double>(centres.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& c : centres) scatter += (c - mean) * (c - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);  // eigenvalues ascending
+  if (solver.info() != Eigen::Success || !(solver.eigenvalues()(1) > 0.0) ||
+      solver.eigenvalues()(0) > kThickest * kThickest * solver.eigenvalues()(1)) {
+    return std::nullopt;
+  }
+  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  if (normal.dot(mean_down) < 0.0) normal = -normal;
+  if (normal.dot(mean_down) < std::cos(kSteepest)) return std::nullopt;
+  return normal;
+}
+
 }  // namespace
 
 Eigen::Matrix3d levelAxes(const Eigen::Matrix3d& camera_to_world, const Eigen::Vector3d& down) {
@@ -82,9 +109,11 @@ LevelTrajectory levelTrajectory(const std::vector<Eigen::Matrix3d>& camera_to_wo
                                 const std::vector<Eigen::Vector3d>& centres) {
   LevelTrajectory result;
   if (camera_to_world.empty() || camera_to_world.size() != centres.size()) return result;
-  Eigen::Vector3d down = Eigen::Vector3d::Zero();
-  for (const auto& R : camera_to_world) down += R.col(1);
-  result.down = down.normalized();
+  Eigen::Vector3d mean_y = Eigen::Vector3d::Zero();
+  for (const auto& R : camera_to_world) mean_y += R.col(1);
+  result.down = mean_y.normalized();
+  const auto motion_normal = motionPlaneNormal(centres, result.down);
+  if (motion_normal) result.down = *motion_normal;
   const Eigen::Matrix3d first = levelAxes(camera_to_world.front(), result.down);
   for (std::size_t i = 0; i < camera_to_world.size(); ++i) {
     const Eigen::Matrix3d axes = levelAxes(camera_to_world[i], result.down);

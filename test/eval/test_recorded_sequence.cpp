@@ -66,7 +66,48 @@ TEST(LevelTrajectory, RemovesTheTiltAndGivesRep103Poses) {
     const Eigen::Matrix3d level_to_world = rotations[i] * level.camera_to_level[i].transpose();
     EXPECT_NEAR(level_to_world.col(1).dot(level.down), 1.0, 1e-9);
   }
-  EXPECT_NEAR(Eigen::AngleAxisd(level.camera_to_level[0]).angle(), 0.005, 1e-3);  // 0.03 vs mean 0.035
+  // The centres move in the plane y = 0: its normal is down, not the cameras' mean axis.
+  EXPECT_NEAR(level.down.dot(Eigen::Vector3d::UnitY()), 1.0, 1e-9);
+  EXPECT_NEAR(Eigen::AngleAxisd(level.camera_to_level[0]).angle(), 0.03, 1e-6);
+  for (const double h : level.height) EXPECT_NEAR(h, 0.0, 1e-9);
+}
+
+TEST(LevelTrajectory, LevelsToThePlaneTheCentresMoveIn) {
+  // A camera pitched 3 deg down on its mount, driven over a floor that is not the world's y = 0:
+  // the floor's normal is 2 deg off the world's y axis. Levelled by the cameras' mean y axis the
+  // route would climb; levelled to the floor it stays at one height.
+  const Eigen::Matrix3d floor_to_world = Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  std::vector<Eigen::Matrix3d> rotations;
+  std::vector<Eigen::Vector3d> centres;
+  const double yaws[] = {0.0, 0.0, 0.3, 0.8, 1.2};
+  const Eigen::Vector2d floor_points[] = {{0, 0}, {0, 2}, {-0.5, 4}, {-2, 5.5}, {-4, 6}};  // (x, z)
+  for (int i = 0; i < 5; ++i) {
+    rotations.push_back(floor_to_world * cameraRotation(yaws[i], 0.05));
+    centres.push_back(floor_to_world * Eigen::Vector3d(floor_points[i].x(), 0.0, floor_points[i].y()));
+  }
+  const auto level = eval::levelTrajectory(rotations, centres);
+  EXPECT_NEAR(level.down.dot(floor_to_world.col(1)), 1.0, 1e-9);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_NEAR(level.height[i], 0.0, 1e-9);
+    EXPECT_NEAR(Eigen::AngleAxisd(level.camera_to_level[i]).angle(), 0.05, 1e-9);  // the mount's pitch
+    EXPECT_NEAR(level.planar[i].yaw, yaws[i], 1e-9);
+  }
+  EXPECT_NEAR(level.planar[1].x, 2.0, 1e-9);
+
+  // Two centres, or a cloud as thick as it is wide, give no floor: the cameras' mean axis stays.
+  const auto meanAxis = [](const std::vector<Eigen::Matrix3d>& r) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const auto& m : r) sum += m.col(1);
+    return sum.normalized();
+  };
+  auto two = rotations;
+  auto two_centres = centres;
+  two.resize(2);
+  two_centres.resize(2);
+  EXPECT_NEAR(eval::levelTrajectory(two, two_centres).down.dot(meanAxis(two)), 1.0, 1e-9);
+  centres[2] += floor_to_world.col(1) * 1.0;  // 1 m below the floor
+  centres[4] -= floor_to_world.col(1) * 1.5;
+  EXPECT_NEAR(eval::levelTrajectory(rotations, centres).down.dot(meanAxis(rotations)), 1.0, 1e-9);
 }
 
 TEST_F(KittiFolder, ReadsImagesStampsCameraAndGroundTruth) {
