@@ -37,6 +37,41 @@ double keyframeNoiseScale(const Route& route, std::size_t k, const std::optional
   if (pairs == 0) return 1.0;
   return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
 }
+
+// measurePlaneAgreement's last step. One or two differences make a noisy variance: two planes that
+// agree by chance (χ² with one degree of freedom is below 0.01 of its mean one time in twelve) are
+// no evidence of an exact plane. The route's median variance counts as kPriorDegrees differences
+// more; a keyframe whose neighbours disagree more keeps its own (KITTI 07: keyframes 28-30 agreed
+// to 0.2° and 0.4 % and their fixes were 1-3 cm off claiming 4-5 mm; docs/math.md §3.6).
+// `degrees[k]`: the neighbours keyframe k was compared with (0: no measured σ).
+void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vector<KeyframeReference>* keyframes) {
+  constexpr double kPriorDegrees = 2.0;
+  std::vector<double> normal_variances, distance_variances;
+  for (std::size_t k = 0; k < keyframes->size(); ++k) {
+    if (degrees[k] == 0) continue;
+    normal_variances.push_back(std::pow((*keyframes)[k].plane_normal_sigma_rad, 2));
+    distance_variances.push_back(std::pow((*keyframes)[k].plane_distance_sigma, 2));
+  }
+  if (normal_variances.empty()) return;
+  const auto median = [](std::vector<double> values) {
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+  };
+  const double route_normal = median(normal_variances);
+  const double route_distance = median(distance_variances);
+  const auto atLeastPooled = [](double sigma, int counted, double route_variance) {
+    const double own = sigma * sigma;
+    const double pooled = (counted * own + kPriorDegrees * route_variance) / (counted + kPriorDegrees);
+    return std::sqrt(std::max(own, pooled));
+  };
+  for (std::size_t k = 0; k < keyframes->size(); ++k) {
+    if (degrees[k] == 0) continue;
+    KeyframeReference& reference = (*keyframes)[k];
+    reference.plane_normal_sigma_rad = atLeastPooled(reference.plane_normal_sigma_rad, degrees[k], route_normal);
+    reference.plane_distance_sigma = atLeastPooled(reference.plane_distance_sigma, degrees[k], route_distance);
+  }
+}
 }  // namespace
 
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
@@ -186,6 +221,7 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     }
     return d;
   };
+  std::vector<int> degrees(static_cast<std::size_t>(n), 0);
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;
@@ -217,7 +253,9 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     }
     reference.plane_normal_sigma_rad = std::min(kLargest, std::sqrt(angle_squares / (2.0 * counted)));
     reference.plane_distance_sigma = std::min(kLargest, std::sqrt(distance_squares / (2.0 * counted)));
+    degrees[static_cast<std::size_t>(k)] = counted;
   }
+  keepAtLeastTheRoutesPlaneVariance(degrees, &keyframes_);
 }
 
 std::vector<Pose2D> KeyframeStore::poses() const {

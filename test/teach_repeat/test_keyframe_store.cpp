@@ -331,6 +331,41 @@ TEST(KeyframeStore, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
   std::filesystem::remove_all(directory);
 }
 
+// One difference makes a noisy variance (docs/math.md §3.6): a keyframe whose only neighbour agrees
+// with it by chance keeps at least the route's median plane variance pooled with its own, counted as
+// two differences; one whose neighbours disagree more keeps its own.
+TEST(KeyframeStore, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncertainty) {
+  const test_support::SyntheticWall wall;
+  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
+  const auto taught = loadRoute(directory);
+  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
+  const std::size_t n = taught->keyframes.size();
+  ASSERT_GE(n, 5u);
+  Route route = *taught;
+  // Every plane turned about the vertical by ±0.02 rad in turn: neighbours 0.04 apart, each plane's
+  // σ 0.04/√2; the last one turned as its neighbour but 0.0005 rad more: alone it would claim 0.00035.
+  const auto turn = [](ScenePlane* plane, double angle) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    plane->normal = Eigen::Vector3d(c * plane->normal.x() - s * plane->normal.z(), plane->normal.y(),
+                                    s * plane->normal.x() + c * plane->normal.z()).normalized();
+  };
+  for (std::size_t k = 0; k + 1 < n; ++k) turn(&*route.keyframes[k].plane, k % 2 == 0 ? 0.02 : -0.02);
+  turn(&*route.keyframes[n - 1].plane, ((n - 2) % 2 == 0 ? 0.02 : -0.02) + 0.0005);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_feature_tolerance_px = 0.0;  // the planes alone
+  options.plane_sigma_from_neighbours = true;
+  const auto store = KeyframeStore::load(route, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  const double typical = 0.04 / std::sqrt(2.0);
+  for (std::size_t k = 0; k + 2 < n; ++k) {
+    EXPECT_NEAR(store->at(static_cast<int>(k)).plane_normal_sigma_rad, typical, 0.004) << k;
+  }
+  // The last: √((1 · 0.00035² + 2 · typical²) / 3), not 0.00035.
+  EXPECT_NEAR(store->at(static_cast<int>(n - 1)).plane_normal_sigma_rad, typical * std::sqrt(2.0 / 3.0), 0.004);
+  std::filesystem::remove_all(directory);
+}
+
 // RepeatOptions::pixel_noise_per_keyframe (docs/math.md §3.9): each keyframe's pixel σ is the
 // route's scaled by the RMS residual of the teach run's pairs that include it over the route's,
 // within [0.5, 2]; without a measurement, or with the option off, 1.
