@@ -222,6 +222,22 @@ TEST(KeyframeStore, ATurnKeyframeThatItsNeighboursDisproveKeepsOnlyWhatTheyConfi
   EXPECT_LT(off, 0.1 * kept) << off << " of " << kept << " kept features are not on their plane";
 }
 
+// A route taught along the synthetic wall (AKAZE), loaded; removed after the test.
+class KeyframeStoreOnAWall : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ = test_support::teachSyntheticRoute(wall_, FeatureType::kAkaze);
+    auto loaded = loadRoute(directory_);
+    ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
+    taught_ = std::move(*loaded);
+  }
+  void TearDown() override { std::filesystem::remove_all(directory_); }
+
+  const test_support::SyntheticWall wall_;
+  std::string directory_;
+  Route taught_;
+};
+
 // A keyframe whose neighbours see its features move as its plane predicts, but nowhere by the
 // parallax that would tell a point off the plane (a car's keyframes along a street, where the
 // facade recedes towards the direction of travel), keeps the features they saw on its plane, not
@@ -229,19 +245,15 @@ TEST(KeyframeStore, ATurnKeyframeThatItsNeighboursDisproveKeepsOnlyWhatTheyConfi
 // turn's NEES mean was 248 (docs/evaluation.md, "KITTI 07"). Here the synthetic wall's images are
 // exact plane warps and a tolerance of 60 px asks a parallax of 120 px, which no neighbour 0.25-0.75
 // m away from a wall 4 m off gives.
-TEST(KeyframeStore, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPlane) {
-  const test_support::SyntheticWall wall;
-  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
-  const auto route = loadRoute(directory);
-  ASSERT_TRUE(route.isOk()) << route.status().toString();
-  ASSERT_GE(route->keyframes.size(), 3u);
+TEST_F(KeyframeStoreOnAWall, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPlane) {
+  ASSERT_GE(taught_.keyframes.size(), 3u);
   RepeatOptions options;
   options.mode = RepeatMode::kFastHd;
   options.plane_feature_tolerance_px = 60.0;
-  const auto store = KeyframeStore::load(*route, options);
+  const auto store = KeyframeStore::load(taught_, options);
   ASSERT_TRUE(store.isOk()) << store.status().toString();
   for (int k = 0; k < store->size(); ++k) {
-    const auto stored = loadKeyframeFeatures(*route, static_cast<std::size_t>(k));
+    const auto stored = loadKeyframeFeatures(taught_, static_cast<std::size_t>(k));
     ASSERT_TRUE(stored.isOk()) << stored.status().toString();
     const int all = static_cast<int>(stored->keypoints.size());
     const int kept = static_cast<int>(store->at(k).features.keypoints.size());
@@ -250,7 +262,6 @@ TEST(KeyframeStore, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPlane) {
     EXPECT_LT(kept, all) << "keyframe " << k << " kept every feature";
     EXPECT_GE(kept, 2 * options.min_inliers) << "keyframe " << k;
   }
-  std::filesystem::remove_all(directory);
 }
 
 // plane_sigma_from_neighbours (docs/math.md §3.6): a neighbour whose plane, carried into this
@@ -260,26 +271,22 @@ TEST(KeyframeStore, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPlane) {
 // over-cautious (room and gallery NEES means below 2). A plane that disagrees with every neighbour
 // keeps the cap. Here one keyframe's plane is turned by 0.8 rad (the gallery's diagonal wall is at
 // 45°): where it ends the route, its neighbour keeps its small σ; in the middle, it alone is capped.
-TEST(KeyframeStore, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError) {
-  const test_support::SyntheticWall wall;
-  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
-  const auto taught = loadRoute(directory);
-  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
-  const int n = static_cast<int>(taught->keyframes.size());
+TEST_F(KeyframeStoreOnAWall, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError) {
+  const int n = static_cast<int>(taught_.keyframes.size());
   ASSERT_GE(n, 4);
   RepeatOptions options;
   options.mode = RepeatMode::kFastHd;
   options.plane_feature_tolerance_px = 0.0;  // the planes alone
   options.plane_sigma_from_neighbours = true;
   auto turned = [&](int keyframe) {
-    Route route = *taught;
+    Route route = taught_;
     ScenePlane& plane = *route.keyframes[static_cast<std::size_t>(keyframe)].plane;
     const double c = std::cos(0.8), s = std::sin(0.8);
     plane.normal = Eigen::Vector3d(c * plane.normal.x() - s * plane.normal.z(), plane.normal.y(),
                                    s * plane.normal.x() + c * plane.normal.z()).normalized();
     return route;
   };
-  const auto agreeing = KeyframeStore::load(*taught, options);
+  const auto agreeing = KeyframeStore::load(taught_, options);
   ASSERT_TRUE(agreeing.isOk()) << agreeing.status().toString();
   for (int k = 0; k < n; ++k) EXPECT_LT(agreeing->at(k).plane_normal_sigma_rad, 0.02) << "keyframe " << k;
 
@@ -293,7 +300,6 @@ TEST(KeyframeStore, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError)
   ASSERT_TRUE(odd.isOk()) << odd.status().toString();
   EXPECT_GT(odd->at(1).plane_normal_sigma_rad, 0.4);
   EXPECT_NEAR(odd->at(2).plane_normal_sigma_rad, agreeing->at(2).plane_normal_sigma_rad, 0.01);
-  std::filesystem::remove_all(directory);
 }
 
 // A keyframe's plane carried from its neighbour's (the straighter pair's, a turn in place's:
@@ -301,17 +307,13 @@ TEST(KeyframeStore, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError)
 // error. A run of copies is compared with the keyframes beyond it. On KITTI 07 the first keyframe's
 // plane was copied to the second, both had σ 0, and the first ten frames' fixes, 5 % off in
 // distance, claimed centimetres (NEES up to 27).
-TEST(KeyframeStore, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
-  const test_support::SyntheticWall wall;
-  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
-  const auto taught = loadRoute(directory);
-  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
-  ASSERT_GE(taught->keyframes.size(), 4u);
+TEST_F(KeyframeStoreOnAWall, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
+  ASSERT_GE(taught_.keyframes.size(), 4u);
   RepeatOptions options;
   options.mode = RepeatMode::kFastHd;
   options.plane_feature_tolerance_px = 0.0;  // the planes alone
   options.plane_sigma_from_neighbours = true;
-  Route route = *taught;
+  Route route = taught_;
   const Pose2D& m = route.info.camera_mount;
   const CameraMount mount(m.x, m.y, m.yaw);
   // Keyframe 1 gets keyframe 0's plane; keyframe 2's is turned by 0.2 rad about the vertical.
@@ -328,20 +330,15 @@ TEST(KeyframeStore, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
   // Both copies against keyframe 2: the 0.2 rad, shared as two estimates' difference (/√2).
   EXPECT_NEAR(store->at(0).plane_normal_sigma_rad, 0.2 / std::sqrt(2.0), 0.02);
   EXPECT_NEAR(store->at(1).plane_normal_sigma_rad, 0.2 / std::sqrt(2.0), 0.02);
-  std::filesystem::remove_all(directory);
 }
 
 // One difference makes a noisy variance (docs/math.md §3.6): a keyframe whose only neighbour agrees
 // with it by chance keeps at least the route's median plane variance pooled with its own, counted as
 // two differences; one whose neighbours disagree more keeps its own.
-TEST(KeyframeStore, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncertainty) {
-  const test_support::SyntheticWall wall;
-  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
-  const auto taught = loadRoute(directory);
-  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
-  const std::size_t n = taught->keyframes.size();
+TEST_F(KeyframeStoreOnAWall, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncertainty) {
+  const std::size_t n = taught_.keyframes.size();
   ASSERT_GE(n, 5u);
-  Route route = *taught;
+  Route route = taught_;
   // Every plane turned about the vertical by ±0.02 rad in turn: neighbours 0.04 apart, each plane's
   // σ 0.04/√2; the last one turned as its neighbour but 0.0005 rad more: alone it would claim 0.00035.
   const auto turn = [](ScenePlane* plane, double angle) {
@@ -363,20 +360,15 @@ TEST(KeyframeStore, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncertainty) {
   }
   // The last: √((1 · 0.00035² + 2 · typical²) / 3), not 0.00035.
   EXPECT_NEAR(store->at(static_cast<int>(n - 1)).plane_normal_sigma_rad, typical * std::sqrt(2.0 / 3.0), 0.004);
-  std::filesystem::remove_all(directory);
 }
 
 // RepeatOptions::pixel_noise_per_keyframe (docs/math.md §3.9): each keyframe's pixel σ is the
 // route's scaled by the RMS residual of the teach run's pairs that include it over the route's,
 // within [0.5, 2]; without a measurement, or with the option off, 1.
-TEST(KeyframeStore, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidual) {
-  const test_support::SyntheticWall wall;
-  const std::string directory = test_support::teachSyntheticRoute(wall, FeatureType::kAkaze);
-  const auto taught = loadRoute(directory);
-  ASSERT_TRUE(taught.isOk()) << taught.status().toString();
-  const std::size_t n = taught->keyframes.size();
+TEST_F(KeyframeStoreOnAWall, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidual) {
+  const std::size_t n = taught_.keyframes.size();
   ASSERT_GE(n, 6u);
-  Route route = *taught;
+  Route route = taught_;
   route.info.match_noise_measured = true;
   for (RouteKeyframe& keyframe : route.keyframes) keyframe.match_residual = MatchResidual{0.3, 100};
   route.keyframes[1].match_residual = MatchResidual{1.2, 100};  // pair 1 -> 2
@@ -400,5 +392,4 @@ TEST(KeyframeStore, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidual) {
   const auto unmeasured = KeyframeStore::load(route, options);
   ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
   EXPECT_EQ(unmeasured->at(1).pixel_noise_scale, 1.0);
-  std::filesystem::remove_all(directory);
 }

@@ -17,6 +17,15 @@ Pose2D basePose(const PlanarPose& camera_pose) { return cameraAxesToRep103(camer
 
 using RepeatLocalizerTest = test_support::SyntheticRouteTest;
 
+// One keyframe tried, no plane uncertainty, no heading floor: the covariance of the pixel noise alone.
+RepeatOptions pixelNoiseAlone() {
+  RepeatOptions options;
+  options.neighbour_search = 0;
+  options.plane_sigma_from_neighbours = false;
+  options.pose.common_shift_sigma_px = 0.0;
+  return options;
+}
+
 }  // namespace
 
 // Fast-HD mode along a path that is 8 cm to the side of the taught one and turned by 2°: the
@@ -429,10 +438,7 @@ TEST_F(RepeatLocalizerTest, ARefusedPoseLetsTheNeighbourTry) {
 // route whose keyframe 1 plane is turned by 0.2 rad says so in that keyframe's covariance.
 TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const PlanarPose camera_pose(0.085, 0.31, 0.047);
-  RepeatOptions plain;
-  plain.neighbour_search = 0;
-  plain.plane_sigma_from_neighbours = false;
-  plain.pose.common_shift_sigma_px = 0.0;  // the pixel noise alone: no model covariance
+  const RepeatOptions plain = pixelNoiseAlone();  // no model covariance
   RepeatOptions measured = plain;
   measured.plane_sigma_from_neighbours = true;
   auto reference = RepeatLocalizer::create(route(), plain);
@@ -463,6 +469,36 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   EXPECT_GT(d->model_covariance.trace(), 2.0 * a->covariance.trace());
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(d->covariance - d->model_covariance).eigenvalues().minCoeff(),
             -1e-12);
+}
+
+// docs/math.md §3.10: a fix whose matches fit the keyframe's plane worse than the keyframe's teach
+// pairs fit theirs has the pixels' covariance scaled by the squared ratio. The same frame against
+// the same route told that its pairs fitted to 100 px (no misfit), 0.02 px and 0.01 px: the pose
+// does not change, the covariance grows by the scale, and halving the residual quadruples it.
+TEST_F(RepeatLocalizerTest, AFixThatFitsItsPlaneWorseThanTheTeachPairsClaimsMore) {
+  const PlanarPose camera_pose(0.085, 0.31, 0.047);
+  RepeatOptions options = pixelNoiseAlone();
+  options.match_residual_gain = 0.0;  // the configured pixel σ, whatever the residual
+  const auto localizeWithResidual = [&](double residual_px) {
+    Route told = route();
+    told.info.match_noise_measured = true;
+    for (RouteKeyframe& keyframe : told.keyframes) keyframe.match_residual = MatchResidual{residual_px, 100};
+    auto localizer = RepeatLocalizer::create(told, options);
+    EXPECT_TRUE(localizer.isOk()) << localizer.status().toString();
+    localizer->setTrackedKeyframe(1);
+    return localizer->localize(wall_->imageAt(camera_pose));
+  };
+  const auto fitting = localizeWithResidual(100.0);
+  const auto coarse = localizeWithResidual(0.02);
+  const auto fine = localizeWithResidual(0.01);
+  ASSERT_TRUE(fitting.isOk() && coarse.isOk() && fine.isOk());
+  ASSERT_TRUE(fitting->has_pose && coarse->has_pose && fine->has_pose);
+  EXPECT_EQ(fitting->misfit_scale, 1.0);
+  EXPECT_GT(coarse->misfit_scale, 4.0);  // the rendered wall's matches are off by more than 0.04 px
+  EXPECT_NEAR(fine->misfit_scale, 4.0 * coarse->misfit_scale, 1e-6 * fine->misfit_scale);
+  EXPECT_NEAR(fine->base_pose.x, fitting->base_pose.x, 1e-9);
+  EXPECT_NEAR(fine->base_pose.y, fitting->base_pose.y, 1e-9);
+  EXPECT_TRUE(fine->covariance.isApprox(fine->misfit_scale * fitting->covariance, 1e-6));
 }
 
 // Routes that learn: the wall was repainted after the teach run (another texture on the same
