@@ -357,7 +357,6 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     if (result.estimate) {
       outcome.keyframe = result.estimate->keyframe;
       outcome.inliers = result.estimate->inliers;
-      outcome.misfit_scale = result.estimate->misfit_scale;
       outcome.degraded = result.estimate->degraded;
       outcome.tracked = result.estimate->tracked;
     }
@@ -430,8 +429,7 @@ nlohmann::json toJson(const SequenceEvaluation& evaluation) {
     nlohmann::json j{{"frame", f.frame},       {"stamp", f.stamp},       {"status", f.status},
                      {"keyframe", f.keyframe}, {"inliers", f.inliers},   {"degraded", f.degraded},
                      {"tracked", f.tracked},   {"fixes", f.fixes},       {"time_ms", f.time_ms},   {"segment", f.segment},
-                     {"distance_m", f.distance}, {"truth", pose(*f.truth)}, {"scoring_keyframe", f.scoring_keyframe},
-                     {"misfit_scale", f.misfit_scale}};
+                     {"distance_m", f.distance}, {"truth", pose(*f.truth)}, {"scoring_keyframe", f.scoring_keyframe}};
     j["pose"] = f.pose ? pose(*f.pose) : nlohmann::json(nullptr);
     if (f.covariance) {
       std::vector<double> c(f.covariance->data(), f.covariance->data() + 9);

@@ -156,18 +156,10 @@ class FastHdEstimator final : public PointEstimator {
     }
     const Status same_wall = checkPlaneNormal(pose->H, *reference.plane, matches, pose->inliers);
     if (!same_wall.isOk()) return same_wall;
-    // Matches that fit the keyframe's plane worse than the keyframe's teach pairs fit their
-    // homographies show what the model misses (two surfaces in a corner, relief): the pixels'
-    // part of the covariance grows by the misfit squared (docs/math.md §3.10). Without a measured
-    // residual, the 2 σ_px that noise of σ_px in both images gives.
-    const double expected = reference.pair_residual_px > 0.0 ? reference.pair_residual_px : 2.0 * pose_options.pixel_sigma_px;
-    const double misfit = std::max(1.0, std::pow(rms / expected, 2));
-    const Eigen::Matrix3d camera_covariance = pose->model_covariance + misfit * (pose->covariance - pose->model_covariance);
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(pose->pose);
-    estimate->covariance = rotateCovariance(J * camera_covariance * J.transpose(), reference.base_pose.yaw);
+    estimate->covariance = rotateCovariance(J * pose->covariance * J.transpose(), reference.base_pose.yaw);
     estimate->model_covariance = rotateCovariance(J * pose->model_covariance * J.transpose(), reference.base_pose.yaw);
     estimate->covariance_known = true;
-    estimate->misfit_scale = misfit;
     return pose->pose;
   }
 

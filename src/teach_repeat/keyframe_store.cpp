@@ -112,7 +112,6 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       reference.features = std::move(*features);
     }
     if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframeNoiseScale(route, k, route_residual);
-    if (route_residual) reference.pair_residual_px = *route_residual * reference.pixel_noise_scale;
     if (k > 0) {
       // A corner keyframe: reached turning, or where the teach run started turning (its heading is
       // the straight segment's, but the walls of the corner are as near).
@@ -160,7 +159,6 @@ Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mou
       reference.plane_distance_sigma = keyframe.plane_distance_sigma;
       reference.turn = keyframe.turn;
       reference.pixel_noise_scale = keyframe.pixel_noise_scale;
-      reference.pair_residual_px = keyframe.pair_residual_px;
       reference.experience = learned.id;
       experiences_[k].push_back(std::move(reference));
     }

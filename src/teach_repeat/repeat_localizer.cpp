@@ -218,7 +218,6 @@ void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const Re
     current.plane_normal_sigma_rad = source.plane_normal_sigma_rad;
     current.plane_distance_sigma = source.plane_distance_sigma;
     current.pixel_noise_scale = source.pixel_noise_scale;
-    current.pair_residual_px = source.pair_residual_px;
   } else {
     current.heading_offset = estimate.heading_correction;
   }

@@ -471,36 +471,6 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
             -1e-12);
 }
 
-// docs/math.md §3.10: a fix whose matches fit the keyframe's plane worse than the keyframe's teach
-// pairs fit theirs has the pixels' covariance scaled by the squared ratio. The same frame against
-// the same route told that its pairs fitted to 100 px (no misfit), 0.02 px and 0.01 px: the pose
-// does not change, the covariance grows by the scale, and halving the residual quadruples it.
-TEST_F(RepeatLocalizerTest, AFixThatFitsItsPlaneWorseThanTheTeachPairsClaimsMore) {
-  const PlanarPose camera_pose(0.085, 0.31, 0.047);
-  RepeatOptions options = pixelNoiseAlone();
-  options.match_residual_gain = 0.0;  // the configured pixel σ, whatever the residual
-  const auto localizeWithResidual = [&](double residual_px) {
-    Route told = route();
-    told.info.match_noise_measured = true;
-    for (RouteKeyframe& keyframe : told.keyframes) keyframe.match_residual = MatchResidual{residual_px, 100};
-    auto localizer = RepeatLocalizer::create(told, options);
-    EXPECT_TRUE(localizer.isOk()) << localizer.status().toString();
-    localizer->setTrackedKeyframe(1);
-    return localizer->localize(wall_->imageAt(camera_pose));
-  };
-  const auto fitting = localizeWithResidual(100.0);
-  const auto coarse = localizeWithResidual(0.02);
-  const auto fine = localizeWithResidual(0.01);
-  ASSERT_TRUE(fitting.isOk() && coarse.isOk() && fine.isOk());
-  ASSERT_TRUE(fitting->has_pose && coarse->has_pose && fine->has_pose);
-  EXPECT_EQ(fitting->misfit_scale, 1.0);
-  EXPECT_GT(coarse->misfit_scale, 4.0);  // the rendered wall's matches are off by more than 0.04 px
-  EXPECT_NEAR(fine->misfit_scale, 4.0 * coarse->misfit_scale, 1e-6 * fine->misfit_scale);
-  EXPECT_NEAR(fine->base_pose.x, fitting->base_pose.x, 1e-9);
-  EXPECT_NEAR(fine->base_pose.y, fitting->base_pose.y, 1e-9);
-  EXPECT_TRUE(fine->covariance.isApprox(fine->misfit_scale * fitting->covariance, 1e-6));
-}
-
 // Routes that learn: the wall was repainted after the teach run (another texture on the same
 // plane), so no taught view matches. An experience of keyframe 2 (a view of the repainted wall near
 // it, with its estimated pose and covariance) makes that place localizable again: the pose within

@@ -86,7 +86,6 @@ struct FrameOutcome {
   int keyframe = -1;   // the estimate's reference keyframe (-1: none)
   int scoring_keyframe = -1;
   int inliers = 0;
-  double misfit_scale = 1.0;  // RepeatEstimate::misfit_scale (docs/math.md §3.10)
   bool degraded = false, tracked = false;
   std::string fixes;  // mu/hybrid: what corrected the filter (RepeatFrameResult::fixes)
   std::optional<Pose2D> pose;  // published pose (route frame)

@@ -37,11 +37,6 @@ struct KeyframeReference {
   // match residual of the teach run's pairs that include it over the route's, within [0.5, 2]; 1
   // where not measured.
   double pixel_noise_scale = 1.0;
-  // The RMS transfer error [px] of the teach run's pairs around this keyframe (the route's median
-  // match residual × pixel_noise_scale): how closely a view of its place fits a homography. A fix
-  // whose matches fit the plane worse has its pixel covariance scaled (docs/math.md §3.10); 0 where
-  // the route has no measured residual.
-  double pair_residual_px = 0.0;
   int experience = 0;                  // 0: a taught view; k > 0: the keyframe's experience k
 };
 

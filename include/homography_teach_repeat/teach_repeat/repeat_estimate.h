@@ -155,10 +155,6 @@ struct RepeatEstimate {
   // noise: the keyframe plane's own error, the heading floor, a temporary reference's pose
   // (PlanarPoseEstimate::model_covariance; the filter does not average it away, docs/math.md §7.1).
   Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
-  // What the pixels' part of `covariance` was scaled by (≥ 1): the squared ratio of the matches'
-  // RMS residual about the keyframe's plane to the residual of its teach pairs, where larger
-  // (docs/math.md §3.10); 1 without a Fast-HD pose.
-  double misfit_scale = 1.0;
   PlanarPose camera_relative;  // current camera in the reference camera frame (docs/math.md §1.1)
   double heading_correction = 0.0;  // yaw of the robot relative to the reference keyframe [rad]
   double mu = 0.0;                  // mu mode: h12/h22 [px]
