@@ -106,13 +106,14 @@ Eigen::Matrix3d levelAxes(const Eigen::Matrix3d& camera_to_world, const Eigen::V
 }
 
 LevelTrajectory levelTrajectory(const std::vector<Eigen::Matrix3d>& camera_to_world,
-                                const std::vector<Eigen::Vector3d>& centres) {
+                                const std::vector<Eigen::Vector3d>& centres, LevelTo level_to) {
   LevelTrajectory result;
   if (camera_to_world.empty() || camera_to_world.size() != centres.size()) return result;
   Eigen::Vector3d mean_y = Eigen::Vector3d::Zero();
   for (const auto& R : camera_to_world) mean_y += R.col(1);
   result.down = mean_y.normalized();
-  const auto motion_normal = motionPlaneNormal(centres, result.down);
+  const auto motion_normal =
+      level_to == LevelTo::kMotionPlane ? motionPlaneNormal(centres, result.down) : std::nullopt;
   if (motion_normal) result.down = *motion_normal;
   const Eigen::Matrix3d first = levelAxes(camera_to_world.front(), result.down);
   for (std::size_t i = 0; i < camera_to_world.size(); ++i) {

@@ -105,6 +105,8 @@ TEST(LevelTrajectory, LevelsToThePlaneTheCentresMoveIn) {
   two.resize(2);
   two_centres.resize(2);
   EXPECT_NEAR(eval::levelTrajectory(two, two_centres).down.dot(meanAxis(two)), 1.0, 1e-9);
+  EXPECT_NEAR(eval::levelTrajectory(rotations, centres, eval::LevelTo::kMeanCameraAxis).down.dot(meanAxis(rotations)),
+              1.0, 1e-9);  // asked for
   centres[2] += floor_to_world.col(1) * 1.0;  // 1 m below the floor
   centres[4] -= floor_to_world.col(1) * 1.5;
   EXPECT_NEAR(eval::levelTrajectory(rotations, centres).down.dot(meanAxis(rotations)), 1.0, 1e-9);

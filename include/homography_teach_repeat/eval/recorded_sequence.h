@@ -69,6 +69,10 @@ Eigen::Matrix3d levelAxes(const Eigen::Matrix3d& camera_to_world, const Eigen::V
 // car climbed 0.9 m in 90 m; Strecha's hand-held views 2.7°, heights 11 cm apart; docs/evaluation.md).
 // Where the centres do not give a plane (fewer than three, on a line, or a cloud more than 5 % as
 // thick as it is wide) or that plane is more than 15° from the cameras' mean y axis, that mean axis.
+// What levelTrajectory takes as down: the plane the centres move in (a robot's floor; the default),
+// or the cameras' mean y axis (gravity for photographs held level on average: the world's vertical
+// edges stay vertical, which μ's vertical lines need).
+enum class LevelTo { kMotionPlane, kMeanCameraAxis };
 struct LevelTrajectory {
   std::vector<Eigen::Matrix3d> camera_to_level;
   std::vector<Pose2D> planar;
@@ -76,7 +80,7 @@ struct LevelTrajectory {
   Eigen::Vector3d down = Eigen::Vector3d::UnitY();
 };
 LevelTrajectory levelTrajectory(const std::vector<Eigen::Matrix3d>& camera_to_world,
-                                const std::vector<Eigen::Vector3d>& centres);
+                                const std::vector<Eigen::Vector3d>& centres, LevelTo level_to = LevelTo::kMotionPlane);
 
 // KITTI odometry layout: `directory` holds image_0/ (000000.png ...), calib.txt (P0 of the left
 // grey camera), times.txt and a poses file (`poses_file`; empty: the only *.txt other than
