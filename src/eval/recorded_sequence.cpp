@@ -65,7 +65,7 @@ void setLevelGroundTruth(const LevelTrajectory& level, RecordedSequence* sequenc
   // A robot without an IMU: the mount measured once, standing at the start.
   sequence->mount_camera_to_level = level.camera_to_level.front();
   sequence->mount_source =
-      "level camera = base_link; constant mount tilt: the first frame's tilt from the ground truth's gravity";
+      "level camera = base_link; constant mount tilt: the first frame's tilt from the ground truth's level frame";
 }
 
 // The normal of the plane the camera centres move in (least squares), signed like `mean_down`;

@@ -60,19 +60,21 @@ struct RecordedSequence {
 // axes in the world). The camera -> level rotation is levelAxes(...)ᵀ · camera_to_world.
 Eigen::Matrix3d levelAxes(const Eigen::Matrix3d& camera_to_world, const Eigen::Vector3d& down);
 
-// Ground-truth cameras (rotation camera -> world, centre in the world; x right, y down, z forward)
-// as level cameras: `camera_to_level` per camera and the planar pose of each in the horizontal
-// frame of the first (origin at its centre, x along its level optical axis, y to its left).
-// `down`: the normal of the plane the centres move in (least squares, signed like the cameras'
-// mean y axis): a robot's floor, in which the planar model holds whatever the camera's pitch or
-// roll on its mount (KITTI 07's camera is 0.8° off its road: levelled by its own mean axis the
-// car climbed 0.9 m in 90 m; Strecha's hand-held views 2.7°, heights 11 cm apart; docs/evaluation.md).
-// Where the centres do not give a plane (fewer than three, on a line, or a cloud more than 5 % as
-// thick as it is wide) or that plane is more than 15° from the cameras' mean y axis, that mean axis.
 // What levelTrajectory takes as down: the plane the centres move in (a robot's floor; the default),
 // or the cameras' mean y axis (gravity for photographs held level on average: the world's vertical
 // edges stay vertical, which μ's vertical lines need).
 enum class LevelTo { kMotionPlane, kMeanCameraAxis };
+
+// Ground-truth cameras (rotation camera -> world, centre in the world; x right, y down, z forward)
+// as level cameras: `camera_to_level` per camera and the planar pose of each in the horizontal
+// frame of the first (origin at its centre, x along its level optical axis, y to its left).
+// `down` with LevelTo::kMotionPlane: the normal of the plane the centres move in (least squares,
+// signed like the cameras' mean y axis), a robot's floor, in which the planar model holds whatever
+// the camera's pitch or roll on its mount (KITTI 07's camera is 0.8° off its road: levelled by its
+// own mean axis the car climbed 0.9 m in 90 m; Strecha's hand-held views 2.7°, heights 11 cm apart;
+// docs/evaluation.md). Where the centres do not give a plane (fewer than three, on a line, or a
+// cloud more than 5 % as thick as it is wide) or that plane is more than 15° from the cameras' mean
+// y axis, and with LevelTo::kMeanCameraAxis, that mean axis.
 struct LevelTrajectory {
   std::vector<Eigen::Matrix3d> camera_to_level;
   std::vector<Pose2D> planar;
