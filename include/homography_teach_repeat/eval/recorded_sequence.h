@@ -71,7 +71,7 @@ enum class LevelTo { kMotionPlane, kMeanCameraAxis };
 // `down` with LevelTo::kMotionPlane: the normal of the plane the centres move in (least squares,
 // signed like the cameras' mean y axis), a robot's floor, in which the planar model holds whatever
 // the camera's pitch or roll on its mount (KITTI 07's camera is 0.8° off its road: levelled by its
-// own mean axis the car climbed 0.9 m in 90 m; Strecha's hand-held views 2.7°, heights 11 cm apart;
+// own mean axis the car climbed 0.9 m in 90 m; fountain-P11's hand-held views 2.7°, heights 23 cm apart;
 // docs/evaluation.md). Where the centres do not give a plane (fewer than three, on a line, or a
 // cloud more than 5 % as thick as it is wide) or that plane is more than 15° from the cameras' mean
 // y axis, and with LevelTo::kMeanCameraAxis, that mean axis.
