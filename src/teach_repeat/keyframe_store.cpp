@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "homography_teach_repeat/common/median.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
@@ -53,13 +54,8 @@ void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vec
     distance_variances.push_back(std::pow((*keyframes)[k].plane_distance_sigma, 2));
   }
   if (normal_variances.empty()) return;
-  const auto median = [](std::vector<double> values) {
-    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-    std::nth_element(values.begin(), middle, values.end());
-    return *middle;
-  };
-  const double route_normal = median(normal_variances);
-  const double route_distance = median(distance_variances);
+  const double route_normal = *upperMedian(std::move(normal_variances));
+  const double route_distance = *upperMedian(std::move(distance_variances));
   const auto atLeastPooled = [](double sigma, int counted, double route_variance) {
     const double own = sigma * sigma;
     const double pooled = (counted * own + kPriorDegrees * route_variance) / (counted + kPriorDegrees);

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "homography_teach_repeat/common/atomic_file.h"
+#include "homography_teach_repeat/common/median.h"
 #include "homography_teach_repeat/teach_repeat/route_files.h"
 
 namespace homography_teach_repeat {
@@ -53,14 +54,6 @@ Status refuseExistingRoute(const std::string& directory, bool overwrite) {
                   "'" + directory + "' already holds a route (route.yaml); refusing to overwrite");
   }
   return Status::ok();
-}
-
-// The element at size/2 of the sorted values (the upper of the two middle ones); nullopt for none.
-std::optional<double> upperMedian(std::vector<double> values) {
-  if (values.empty()) return std::nullopt;
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
 }
 
 void emitPose(YAML::Emitter& out, const Pose2D& pose) {

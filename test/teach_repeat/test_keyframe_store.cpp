@@ -233,6 +233,13 @@ class KeyframeStoreOnAWall : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(directory_); }
 
+  // Turns a plane's normal by `angle` [rad] about the camera's vertical (y) axis.
+  static void turnAboutTheVertical(ScenePlane* plane, double angle) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    plane->normal = Eigen::Vector3d(c * plane->normal.x() - s * plane->normal.z(), plane->normal.y(),
+                                    s * plane->normal.x() + c * plane->normal.z()).normalized();
+  }
+
   const test_support::SyntheticWall wall_;
   std::string directory_;
   Route taught_;
@@ -280,10 +287,7 @@ TEST_F(KeyframeStoreOnAWall, ANeighbourThatSeesAnotherWallSaysNothingAboutThePla
   options.plane_sigma_from_neighbours = true;
   auto turned = [&](int keyframe) {
     Route route = taught_;
-    ScenePlane& plane = *route.keyframes[static_cast<std::size_t>(keyframe)].plane;
-    const double c = std::cos(0.8), s = std::sin(0.8);
-    plane.normal = Eigen::Vector3d(c * plane.normal.x() - s * plane.normal.z(), plane.normal.y(),
-                                   s * plane.normal.x() + c * plane.normal.z()).normalized();
+    turnAboutTheVertical(&*route.keyframes[static_cast<std::size_t>(keyframe)].plane, 0.8);
     return route;
   };
   const auto agreeing = KeyframeStore::load(taught_, options);
@@ -321,10 +325,7 @@ TEST_F(KeyframeStoreOnAWall, APlaneCopiedToItsNeighbourIsComparedWithTheNextEsti
                                     mount.baseToCamera(route.keyframes[0].pose.inverse().compose(route.keyframes[1].pose)));
   ASSERT_TRUE(copied.isOk()) << copied.status().toString();
   route.keyframes[1].plane = *copied;
-  ScenePlane& turned = *route.keyframes[2].plane;
-  const double c = std::cos(0.2), s = std::sin(0.2);
-  turned.normal = Eigen::Vector3d(c * turned.normal.x() - s * turned.normal.z(), turned.normal.y(),
-                                  s * turned.normal.x() + c * turned.normal.z()).normalized();
+  turnAboutTheVertical(&*route.keyframes[2].plane, 0.2);
   const auto store = KeyframeStore::load(route, options);
   ASSERT_TRUE(store.isOk()) << store.status().toString();
   // Both copies against keyframe 2: the 0.2 rad, shared as two estimates' difference (/√2).
@@ -341,13 +342,8 @@ TEST_F(KeyframeStoreOnAWall, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncert
   Route route = taught_;
   // Every plane turned about the vertical by ±0.02 rad in turn: neighbours 0.04 apart, each plane's
   // σ 0.04/√2; the last one turned as its neighbour but 0.0005 rad more: alone it would claim 0.00035.
-  const auto turn = [](ScenePlane* plane, double angle) {
-    const double c = std::cos(angle), s = std::sin(angle);
-    plane->normal = Eigen::Vector3d(c * plane->normal.x() - s * plane->normal.z(), plane->normal.y(),
-                                    s * plane->normal.x() + c * plane->normal.z()).normalized();
-  };
-  for (std::size_t k = 0; k + 1 < n; ++k) turn(&*route.keyframes[k].plane, k % 2 == 0 ? 0.02 : -0.02);
-  turn(&*route.keyframes[n - 1].plane, ((n - 2) % 2 == 0 ? 0.02 : -0.02) + 0.0005);
+  for (std::size_t k = 0; k + 1 < n; ++k) turnAboutTheVertical(&*route.keyframes[k].plane, k % 2 == 0 ? 0.02 : -0.02);
+  turnAboutTheVertical(&*route.keyframes[n - 1].plane, ((n - 2) % 2 == 0 ? 0.02 : -0.02) + 0.0005);
   RepeatOptions options;
   options.mode = RepeatMode::kFastHd;
   options.plane_feature_tolerance_px = 0.0;  // the planes alone

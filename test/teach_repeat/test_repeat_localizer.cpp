@@ -17,15 +17,6 @@ Pose2D basePose(const PlanarPose& camera_pose) { return cameraAxesToRep103(camer
 
 using RepeatLocalizerTest = test_support::SyntheticRouteTest;
 
-// One keyframe tried, no plane uncertainty, no heading floor: the covariance of the pixel noise alone.
-RepeatOptions pixelNoiseAlone() {
-  RepeatOptions options;
-  options.neighbour_search = 0;
-  options.plane_sigma_from_neighbours = false;
-  options.pose.common_shift_sigma_px = 0.0;
-  return options;
-}
-
 }  // namespace
 
 // Fast-HD mode along a path that is 8 cm to the side of the taught one and turned by 2°: the
@@ -438,7 +429,10 @@ TEST_F(RepeatLocalizerTest, ARefusedPoseLetsTheNeighbourTry) {
 // route whose keyframe 1 plane is turned by 0.2 rad says so in that keyframe's covariance.
 TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const PlanarPose camera_pose(0.085, 0.31, 0.047);
-  const RepeatOptions plain = pixelNoiseAlone();  // no model covariance
+  RepeatOptions plain;
+  plain.neighbour_search = 0;
+  plain.plane_sigma_from_neighbours = false;
+  plain.pose.common_shift_sigma_px = 0.0;  // the pixel noise alone: no model covariance
   RepeatOptions measured = plain;
   measured.plane_sigma_from_neighbours = true;
   auto reference = RepeatLocalizer::create(route(), plain);
