@@ -43,7 +43,8 @@ double keyframeNoiseScale(const Route& route, std::size_t k, const std::optional
 // agree by chance (χ² with one degree of freedom is below 0.01 of its mean one time in twelve) are
 // no evidence of an exact plane. The route's median variance counts as kPriorDegrees differences
 // more; a keyframe whose neighbours disagree more keeps its own (KITTI 07: keyframes 28-30 agreed
-// to 0.2° and 0.4 % and their fixes were 1-3 cm off claiming 4-5 mm; docs/math.md §3.6).
+// to 0.2° and 0.4 % and their fixes were 1-3 cm off claiming 4-5 mm; docs/math.md §3.6). A plane
+// that no neighbour could be compared with (the keyframes beside it have no plane) takes the route's.
 // `degrees[k]`: the neighbours keyframe k was compared with (0: no measured σ).
 void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vector<KeyframeReference>* keyframes) {
   constexpr double kPriorDegrees = 2.0;
@@ -62,8 +63,8 @@ void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vec
     return std::sqrt(std::max(own, pooled));
   };
   for (std::size_t k = 0; k < keyframes->size(); ++k) {
-    if (degrees[k] == 0) continue;
     KeyframeReference& reference = (*keyframes)[k];
+    if (!reference.plane) continue;
     reference.plane_normal_sigma_rad = atLeastPooled(reference.plane_normal_sigma_rad, degrees[k], route_normal);
     reference.plane_distance_sigma = atLeastPooled(reference.plane_distance_sigma, degrees[k], route_distance);
   }

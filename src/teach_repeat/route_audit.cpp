@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "homography_teach_repeat/common/median.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/geometry/point_match.h"
@@ -293,12 +294,7 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
   for (const NeighbourPart& part : neighbour_part) {
     if (part.fraction >= 0.0) route_parts.push_back(part.unstretched());
   }
-  std::optional<double> route_part;
-  if (!route_parts.empty()) {
-    std::nth_element(route_parts.begin(), route_parts.begin() + static_cast<std::ptrdiff_t>(route_parts.size() / 2),
-                     route_parts.end());
-    route_part = route_parts[route_parts.size() / 2];
-  }
+  const std::optional<double> route_part = upperMedian(std::move(route_parts));
 
   for (int k = 0; k < n; ++k) {
     const KeyframeReference& reference = references[static_cast<std::size_t>(k)];

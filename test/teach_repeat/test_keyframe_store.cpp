@@ -358,6 +358,30 @@ TEST_F(KeyframeStoreOnAWall, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncert
   EXPECT_NEAR(store->at(static_cast<int>(n - 1)).plane_normal_sigma_rad, typical * std::sqrt(2.0 / 3.0), 0.004);
 }
 
+// A plane no neighbour can be compared with (the keyframes beside it have no plane) is not exact:
+// it takes the route's typical uncertainty (docs/math.md §3.6), where it had σ 0 and its fixes
+// claimed the pixels' precision alone.
+TEST_F(KeyframeStoreOnAWall, APlaneWithoutNeighboursTakesTheRoutesTypicalUncertainty) {
+  const std::size_t n = taught_.keyframes.size();
+  ASSERT_GE(n, 6u);
+  Route route = taught_;
+  for (std::size_t k = 0; k < n; ++k) turnAboutTheVertical(&*route.keyframes[k].plane, k % 2 == 0 ? 0.02 : -0.02);
+  route.keyframes[2].plane.reset();
+  route.keyframes[4].plane.reset();
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.require_planes = false;
+  options.plane_feature_tolerance_px = 0.0;  // the planes alone
+  options.plane_sigma_from_neighbours = true;
+  const auto store = KeyframeStore::load(route, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  const double typical = 0.04 / std::sqrt(2.0);
+  EXPECT_NEAR(store->at(1).plane_normal_sigma_rad, typical, 0.004);  // keyframe 0 beside it
+  EXPECT_NEAR(store->at(3).plane_normal_sigma_rad, typical, 0.004);  // no neighbour: the route's
+  EXPECT_GT(store->at(3).plane_distance_sigma, 0.0);
+  EXPECT_EQ(store->at(2).plane_normal_sigma_rad, 0.0);  // no plane, nothing to describe
+}
+
 // RepeatOptions::pixel_noise_per_keyframe (docs/math.md §3.9): each keyframe's pixel σ is the
 // route's scaled by the RMS residual of the teach run's pairs that include it over the route's,
 // within [0.5, 2]; without a measurement, or with the option off, 1.
