@@ -131,7 +131,8 @@ void checkMount(const SetupObservations& seen, const SetupCheckOptions& o, std::
                                 std::abs(elevation) * 180.0 / M_PI) +
                              (elevation < 0.0 ? "down)" : "up)"),
                          "level the camera (the planar pose assumes it), or if that is how it sits, teach with "
-                         "estimate_keyframe_tilt and repeat with tilt_sigma (docs/evaluation.md, KITTI 07)",
+                         "estimate_keyframe_tilt (auto, the default, estimates it where the teach run measures the "
+                         "body's tilt) and repeat with the tilt nuisance (docs/evaluation.md, KITTI 07)",
                          tilt > 0.3});
   }
 }

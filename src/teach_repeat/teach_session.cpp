@@ -3,6 +3,7 @@
 #include "homography_teach_repeat/homography/image_registration.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -24,6 +25,47 @@ bool KeyframePolicy::shouldStore(const std::optional<Pose2D>& last_keyframe,
   if (!last_keyframe) return true;
   return std::hypot(current.x - last_keyframe->x, current.y - last_keyframe->y) >= distance ||
          std::abs(wrapToPi(current.yaw - last_keyframe->yaw)) >= angle;
+}
+
+KeyframeTilt keyframeTiltFromString(const std::string& name) {
+  if (name == "auto") return KeyframeTilt::kAuto;
+  if (name == "true") return KeyframeTilt::kEstimate;
+  if (name == "false") return KeyframeTilt::kLevel;
+  throw std::invalid_argument("estimate_keyframe_tilt must be auto, true or false, got '" + name + "'");
+}
+
+std::string toString(KeyframeTilt mode) {
+  switch (mode) {
+    case KeyframeTilt::kEstimate:
+      return "true";
+    case KeyframeTilt::kLevel:
+      return "false";
+    case KeyframeTilt::kAuto:
+      break;
+  }
+  return "auto";
+}
+
+bool estimatesKeyframeTilt(KeyframeTilt mode, const std::optional<double>& measured_tilt_sigma) {
+  if (mode == KeyframeTilt::kEstimate) return true;
+  if (mode == KeyframeTilt::kLevel) return false;
+  return measured_tilt_sigma && *measured_tilt_sigma > kTiltedBodySigma;
+}
+
+std::string describeKeyframeTilt(const PlaneEstimationReport& report, KeyframeTilt mode) {
+  char measured[96] = "not measured";
+  if (report.measured_tilt_rad) {
+    std::snprintf(measured, sizeof(measured), "%.4f rad", *report.measured_tilt_rad);
+  }
+  const std::string state = report.keyframe_tilt_estimated ? "estimated with the planes" : "not estimated";
+  if (mode != KeyframeTilt::kAuto) {
+    return "keyframe tilt " + state + ": estimate_keyframe_tilt " + toString(mode) + " (the pairs' relative tilt " +
+           measured + ")";
+  }
+  char threshold[32];
+  std::snprintf(threshold, sizeof(threshold), "%.3f rad", kTiltedBodySigma);
+  return "keyframe tilt " + state + ": estimate_keyframe_tilt auto, the pairs' relative tilt " + measured +
+         (report.keyframe_tilt_estimated ? " is above " : " is not above ") + threshold;
 }
 
 void TeachOptions::validate() const {
@@ -134,9 +176,15 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   }
   const Status measured = writer_->setMeasuredNoise(residuals, tilts);  // written with the planes below
   if (!measured.isOk()) return measured;
+  std::vector<PairTilt> measured_tilts;
+  for (const auto& tilt : tilts) {
+    if (tilt) measured_tilts.push_back(*tilt);
+  }
+  report.measured_tilt_rad = tiltSigmaOf(measured_tilts);
+  report.keyframe_tilt_estimated = estimatesKeyframeTilt(options_.keyframe_tilt, report.measured_tilt_rad);
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;
-  plane_options.estimate_tilt = options_.estimate_keyframe_tilt;
+  plane_options.estimate_tilt = report.keyframe_tilt_estimated;
   if (isClosedRoute(route, options_.closed_route_gap)) {
     plane_options.closing_motion =
         mount.baseToCamera(route.keyframes.back().pose.inverse().compose(route.keyframes.front().pose));

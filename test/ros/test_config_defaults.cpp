@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -139,6 +140,31 @@ TEST(ConfigDefaults, ControllerNodeYamlStatesTheBuiltInDefaults) {
   ParameterDefaultsRecorder recorder;
   readRouteFollowerOptions(nh);
   expectDefaultsStated(recorder, 30);
+}
+
+// teach_node's estimate_keyframe_tilt is auto (a string) or a bool; anything else stops the node
+// at start-up naming the value.
+TEST(TeachParameters, EstimateKeyframeTiltIsAutoTrueOrFalse) {
+  const ros::NodeHandle nh("/keyframe_tilt");
+  const auto read = [&](const auto& value) {
+    nh.setParam("estimate_keyframe_tilt", value);
+    return readTeachOptions(nh, true).keyframe_tilt;  // into a map: no route folder needed
+  };
+  nh.deleteParam("estimate_keyframe_tilt");
+  EXPECT_EQ(readTeachOptions(nh, true).keyframe_tilt, KeyframeTilt::kAuto);
+  EXPECT_EQ(read(std::string("auto")), KeyframeTilt::kAuto);
+  EXPECT_EQ(read(true), KeyframeTilt::kEstimate);
+  EXPECT_EQ(read(false), KeyframeTilt::kLevel);
+  try {
+    read(std::string("sometimes"));
+    ADD_FAILURE() << "a bad value was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("estimate_keyframe_tilt must be auto, true or false, got 'sometimes'"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(read(3), std::runtime_error);
+  nh.deleteParam("estimate_keyframe_tilt");
 }
 
 TEST(ConfigDefaults, AValueOffItsDefaultIsFound) {

@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -170,19 +172,21 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
 // §2.5): images tilted by up to 0.7° taught with planes from odometry. With
 // estimate_keyframe_tilt every keyframe's plane is right (measured: worst normal 1.3°, distance
 // 0.3 %); without it the tilt reads as a wrong plane (13°, 2.5 %). Either way the teach run
-// measures each pair's relative tilt (pairTiltOf), near the images' own difference.
+// measures each pair's relative tilt (pairTiltOf), near the images' own difference. The default,
+// auto, estimates it here (the pairs' tilt above kTiltedBodySigma) and not for the same camera level.
 TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
   const SyntheticWall scene;
   const PinholeCamera camera(calibration());
   std::vector<Eigen::Vector2d> image_tilts;  // (pitch, roll) of each keyframe's image
-  auto teach = [&](bool estimate_tilt, std::vector<PlanarPose>* camera_poses) {
+  std::optional<PlaneEstimationReport> report;  // of the last teach run
+  auto teach = [&](KeyframeTilt mode, std::vector<PlanarPose>* camera_poses, double tilt_scale = 1.0) {
     const std::string dir = makeTemporaryDirectory("htr_teach_tilt");
     TeachOptions options;
     options.route_directory = dir;
     options.features.type = FeatureType::kAkaze;
     options.keyframes.distance = 0.25;
     options.planes_from_odometry = true;
-    options.estimate_keyframe_tilt = estimate_tilt;
+    options.keyframe_tilt = mode;
     auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
     EXPECT_TRUE(session.isOk()) << session.status().toString();
     camera_poses->clear();
@@ -190,19 +194,23 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
     for (int step = 0; step <= 15; ++step) {
       const double s = 0.1 * step;
       const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
-      const Eigen::Matrix3d T = (Eigen::AngleAxisd(0.012 * std::sin(1.3 * step), Eigen::Vector3d::UnitX()) *
-                                 Eigen::AngleAxisd(0.008 * std::cos(0.9 * step), Eigen::Vector3d::UnitZ()))
-                                    .toRotationMatrix();
+      const double pitch = tilt_scale * 0.012 * std::sin(1.3 * step), roll = tilt_scale * 0.008 * std::cos(0.9 * step);
+      const Eigen::Matrix3d T =
+          (Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()))
+              .toRotationMatrix();
       const Eigen::Matrix3d H =
           camera.K() * T * camera.Kinverse() * planeInducedHomography(camera, camera_pose, scene.plane);
       const auto offered = session->offer(test_support::warp(scene.texture, H), cameraAxesToRep103(camera_pose), 10.0 + step);
       EXPECT_TRUE(offered.isOk()) << offered.status().toString();
       if (offered.isOk() && *offered) {
         camera_poses->push_back(camera_pose);
-        image_tilts.emplace_back(0.012 * std::sin(1.3 * step), 0.008 * std::cos(0.9 * step));
+        image_tilts.emplace_back(pitch, roll);
       }
     }
-    EXPECT_TRUE(session->finish().isOk());
+    const auto finished = session->finish();
+    EXPECT_TRUE(finished.isOk()) << finished.status().toString();
+    report.reset();
+    if (finished.isOk()) report = *finished;
     auto route = loadRoute(dir);
     std::filesystem::remove_all(dir);
     return route;
@@ -220,7 +228,7 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
     return errors;
   };
   std::vector<PlanarPose> poses;
-  const auto with_tilt = teach(true, &poses);
+  const auto with_tilt = teach(KeyframeTilt::kEstimate, &poses);
   ASSERT_TRUE(with_tilt.isOk()) << with_tilt.status().toString();
   ASSERT_EQ(with_tilt->keyframes.size(), 6u);
   const auto tilt_errors = worst(*with_tilt, poses);
@@ -239,10 +247,43 @@ TEST(TeachSession, KeyframeTiltKeepsThePlanesOfATiltingCamera) {
   ASSERT_TRUE(routeTiltSigma(*with_tilt).has_value());
   EXPECT_GT(*routeTiltSigma(*with_tilt), 0.5 * true_sigma);
   EXPECT_LT(*routeTiltSigma(*with_tilt), 2.0 * true_sigma);
-  const auto without = teach(false, &poses);
+  const auto without = teach(KeyframeTilt::kLevel, &poses);
   ASSERT_TRUE(without.isOk()) << without.status().toString();
+  ASSERT_TRUE(report.has_value());
+  EXPECT_FALSE(report->keyframe_tilt_estimated);
   const auto planar_errors = worst(*without, poses);
   EXPECT_GT(planar_errors.first, 3.0 * tilt_errors.first);
+
+  const auto automatic = teach(KeyframeTilt::kAuto, &poses);
+  ASSERT_TRUE(automatic.isOk()) << automatic.status().toString();
+  ASSERT_TRUE(report.has_value() && report->measured_tilt_rad.has_value());
+  EXPECT_GT(*report->measured_tilt_rad, kTiltedBodySigma);
+  EXPECT_TRUE(report->keyframe_tilt_estimated) << describeKeyframeTilt(*report, KeyframeTilt::kAuto);
+  const auto automatic_errors = worst(*automatic, poses);
+  EXPECT_NEAR(automatic_errors.first, tilt_errors.first, 1e-9);
+  EXPECT_NEAR(automatic_errors.second, tilt_errors.second, 1e-9);
+
+  const auto level = teach(KeyframeTilt::kAuto, &poses, 0.0);
+  ASSERT_TRUE(level.isOk()) << level.status().toString();
+  ASSERT_TRUE(report.has_value() && report->measured_tilt_rad.has_value());
+  EXPECT_LT(*report->measured_tilt_rad, kTiltedBodySigma);
+  EXPECT_FALSE(report->keyframe_tilt_estimated) << describeKeyframeTilt(*report, KeyframeTilt::kAuto);
+  std::printf("%s\n", describeKeyframeTilt(*report, KeyframeTilt::kAuto).c_str());
+}
+
+TEST(TeachSession, KeyframeTiltIsAutoTrueOrFalse) {
+  EXPECT_EQ(keyframeTiltFromString("auto"), KeyframeTilt::kAuto);
+  EXPECT_EQ(keyframeTiltFromString("true"), KeyframeTilt::kEstimate);
+  EXPECT_EQ(keyframeTiltFromString("false"), KeyframeTilt::kLevel);
+  EXPECT_THROW(keyframeTiltFromString("sometimes"), std::invalid_argument);
+  for (const KeyframeTilt mode : {KeyframeTilt::kAuto, KeyframeTilt::kEstimate, KeyframeTilt::kLevel}) {
+    EXPECT_EQ(keyframeTiltFromString(toString(mode)), mode);
+  }
+  EXPECT_TRUE(estimatesKeyframeTilt(KeyframeTilt::kAuto, 2.0 * kTiltedBodySigma));
+  EXPECT_FALSE(estimatesKeyframeTilt(KeyframeTilt::kAuto, 0.5 * kTiltedBodySigma));
+  EXPECT_FALSE(estimatesKeyframeTilt(KeyframeTilt::kAuto, std::nullopt));  // not measured: level
+  EXPECT_TRUE(estimatesKeyframeTilt(KeyframeTilt::kEstimate, std::nullopt));
+  EXPECT_FALSE(estimatesKeyframeTilt(KeyframeTilt::kLevel, 1.0));
 }
 
 TEST(TeachSession, BadInputAndTooFewKeyframes) {

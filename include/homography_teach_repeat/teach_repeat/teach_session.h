@@ -26,6 +26,27 @@
 
 namespace homography_teach_repeat {
 
+// Whether the teach run estimates each keyframe pair's relative pitch and roll together with its
+// plane (docs/math.md §2.5): a camera levelled by one constant mount rotation (no IMU) still pitches
+// and rolls with the body between keyframes, which otherwise reads as a wrong plane; where the
+// images are level the two extra unknowns only cost precision.
+enum class KeyframeTilt {
+  kAuto,      // estimated where the pairs' measured relative tilt (tiltSigmaOf) exceeds kTiltedBodySigma
+  kEstimate,  // always
+  kLevel,     // never (an IMU levels the images, the simulator)
+};
+// [rad] The relative tilt between keyframes above which kAuto estimates it. Level images measure
+// 0.0011-0.0013 rad (KITTI 07 levelled by the car's INS, fountain-P11 by its ground truth: the
+// estimate's own noise on a real scene), KITTI 07 levelled by one constant mount 0.0078 rad
+// (docs/evaluation.md, "Levelled by one constant mount").
+inline constexpr double kTiltedBodySigma = 0.003;
+// "auto", "true" (kEstimate), "false" (kLevel); std::invalid_argument naming the value otherwise.
+KeyframeTilt keyframeTiltFromString(const std::string& name);
+std::string toString(KeyframeTilt mode);
+// Whether `mode` estimates the tilt on a route whose pairs measured `measured_tilt_sigma` [rad]
+// (nullopt: not measured; kAuto then keeps the images level).
+bool estimatesKeyframeTilt(KeyframeTilt mode, const std::optional<double>& measured_tilt_sigma);
+
 struct TeachOptions {
   std::string route_directory;
   bool overwrite = false;
@@ -39,10 +60,9 @@ struct TeachOptions {
   // routes past several walls, e.g. round a room; no tape measure) instead of the paper's single
   // plane tracked from the first keyframe with first_plane_distance (false).
   bool planes_from_odometry = true;
-  // With planes_from_odometry: estimate each keyframe pair's relative pitch and roll together with
-  // its plane (docs/math.md §2.5). For images levelled by one constant mount rotation (no IMU): the
-  // body's pitch and roll between two keyframes otherwise read as a wrong plane.
-  bool estimate_keyframe_tilt = false;
+  // With planes_from_odometry: whether each keyframe pair's relative pitch and roll are estimated
+  // with its plane (KeyframeTilt above; docs/math.md §2.5).
+  KeyframeTilt keyframe_tilt = KeyframeTilt::kAuto;
   // With planes_from_odometry: a route whose last keyframe is within closed_route_gap [m] of its
   // first (at least 3 keyframes; 0: never) is a loop, and the keyframes of its closing corner that
   // face the first leg take the first keyframe's wall (OdometryPlaneOptions::closing_motion). The
@@ -55,8 +75,14 @@ struct TeachOptions {
 struct PlaneEstimationReport {
   int keyframes = 0;
   int planes = 0;  // keyframes that received a plane
+  std::optional<double> measured_tilt_rad;  // the pairs' relative tilt (tiltSigmaOf), where measured
+  bool keyframe_tilt_estimated = false;     // the planes were estimated with each pair's tilt
   std::vector<std::string> messages;  // one line per problem (pair and reason)
 };
+
+// One line for the teach run's log: whether the planes were estimated with each pair's tilt, and why
+// (`mode` the run's KeyframeTilt).
+std::string describeKeyframeTilt(const PlaneEstimationReport& report, KeyframeTilt mode);
 
 class TeachSession {
  public:

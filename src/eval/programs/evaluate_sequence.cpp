@@ -103,7 +103,7 @@ cli::Arguments sequenceArguments() {
        {"tilt-sigma", std::to_string(repeat_defaults.pose.tilt_sigma_rad)},
        {"measured-tilt-gain", std::to_string(repeat_defaults.measured_tilt_gain)},
        {"heading-sigma", std::to_string(repeat_defaults.pose.heading_sigma_rad)},
-       {"common-shift-sigma", std::to_string(repeat_defaults.pose.common_shift_sigma_px)}, {"teach-tilt", "0"},
+       {"common-shift-sigma", std::to_string(repeat_defaults.pose.common_shift_sigma_px)}, {"teach-tilt", "auto"},
        {"max-plane-residual", std::to_string(repeat_defaults.max_plane_residual_px)},
        {"plane-sigma-from-neighbours", std::to_string(repeat_defaults.plane_sigma_from_neighbours ? 1 : 0)},
        {"max-tracked-frames", std::to_string(repeat_defaults.max_tracked_frames)},
@@ -128,7 +128,8 @@ cli::Arguments sequenceArguments() {
       "  [--measured-tilt-gain G] (the tilt nuisance's prior sigma: G x the teach run's measured tilt; 0: --tilt-sigma)\n"
       "  [--tilt-sigma RAD] (the current camera's tilt as a nuisance in the refinement, e.g. with --level mount)\n"
       "  [--max-plane-residual PX] (RMS of the matches about the keyframe plane's homography above which a keyframe is refused)\n"
-      "  [--teach-tilt 0|1] (each keyframe pair's relative pitch and roll estimated with its plane)\n"
+      "  [--teach-tilt auto|1|0] (each keyframe pair's relative pitch and roll estimated with its plane; auto: where\n"
+      "   the pairs' measured relative tilt exceeds 0.003 rad, teach_node's estimate_keyframe_tilt)\n"
       "  [--heading-sigma RAD] [--common-shift-sigma PX] (a heading error many matches do not average away, added to the covariance)\n"
       "  [--mu-line-landmarks 0|1] (mu: each keyframe line triangulated with its own depth, a fix from every line)\n"
       "  [--line-min-length PX] (shortest vertical line kept, teach and repeat)\n"
@@ -162,7 +163,8 @@ int main(int argc, char** argv) {
   options.repeat.localization.max_features = args.integer("max-features");
   options.teach.first_plane_distance = args.number("first-plane-distance");
   options.teach.planes_from_odometry = !(options.teach.first_plane_distance > 0.0);
-  options.teach.estimate_keyframe_tilt = args.integer("teach-tilt") != 0;
+  const std::string teach_tilt = args.text("teach-tilt");
+  options.teach.keyframe_tilt = keyframeTiltFromString(teach_tilt == "1" ? "true" : teach_tilt == "0" ? "false" : teach_tilt);
   options.repeat.localization.max_plane_residual_px = args.number("max-plane-residual");
   options.teach.keyframes.distance = args.number("keyframe-distance");
   options.teach.keyframes.angle = args.number("keyframe-angle");
@@ -284,7 +286,8 @@ int main(int argc, char** argv) {
                        {"common_shift_sigma_px", options.repeat.localization.pose.common_shift_sigma_px},
                        {"mu_line_landmarks", options.repeat.localization.mu_line_landmarks},
                        {"line_min_length_px", options.teach.lines.min_length_px},
-                       {"teach_tilt", options.teach.estimate_keyframe_tilt},
+                       {"teach_tilt", toString(options.teach.keyframe_tilt)},
+                       {"teach_tilt_estimated", evaluation->planes.keyframe_tilt_estimated},
                        {"max_plane_residual_px", options.repeat.localization.max_plane_residual_px},
                        {"plane_sigma_from_neighbours", options.repeat.localization.plane_sigma_from_neighbours},
                        {"max_tracked_frames", options.repeat.localization.max_tracked_frames},
@@ -306,6 +309,9 @@ int main(int argc, char** argv) {
   const auto& s = document["summary"];
   std::cout << "evaluate_sequence: " << s["localized"] << " of " << s["frames"] << " frames localized; "
             << evaluation->odometry_note << "\n";
+  if (options.teach.planes_from_odometry) {
+    std::cout << "  teach: " << describeKeyframeTilt(evaluation->planes, options.teach.keyframe_tilt) << "\n";
+  }
   std::string segment_nees, segment_beyond;
   for (const auto& segment : document["segments"]) {
     std::cout << "  " << segment["name"].get<std::string>() << " (frames " << segment["first_frame"] << "-"

@@ -182,6 +182,7 @@ Status TeachNode::finish(std::string* summary) {
   *summary = std::to_string(report->keyframes) + " keyframes, " + std::to_string(report->planes) +
              " with a plane";
   for (const auto& m : report->messages) *summary += "; " + m;
+  if (options_.planes_from_odometry) *summary += "; " + describeKeyframeTilt(*report, options_.keyframe_tilt);
   // The audit of the finished route (without the n² aliasing check: route_info has it).
   RouteAuditOptions audit = audit_;
   audit.aliasing = false;

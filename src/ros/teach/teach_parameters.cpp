@@ -8,6 +8,21 @@
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 namespace homography_teach_repeat {
+namespace {
+
+// estimate_keyframe_tilt: auto (a string), or true / false (a bool).
+KeyframeTilt readKeyframeTilt(const ros::NodeHandle& nh, KeyframeTilt default_value) {
+  const std::string name = "estimate_keyframe_tilt";
+  recordParameterDefault(nh, name, toString(default_value));
+  if (!nh.hasParam(name)) return default_value;
+  bool estimate = false;
+  if (nh.getParam(name, estimate)) return estimate ? KeyframeTilt::kEstimate : KeyframeTilt::kLevel;
+  std::string text;
+  if (nh.getParam(name, text)) return keyframeTiltFromString(text);  // std::invalid_argument naming it
+  throw std::invalid_argument("estimate_keyframe_tilt must be auto, true or false");
+}
+
+}  // namespace
 
 TeachOptions readTeachOptions(const ros::NodeHandle& nh, bool into_map) {
   TeachOptions options;
@@ -35,7 +50,7 @@ TeachOptions readTeachOptions(const ros::NodeHandle& nh, bool into_map) {
         readParameter(nh, "first_plane_distance", options.first_plane_distance);
     // A tape-measured first plane asks for the paper's single plane; without one, planes from odometry.
     options.planes_from_odometry = readParameter(nh, "planes_from_odometry", !(options.first_plane_distance > 0.0));
-    options.estimate_keyframe_tilt = readParameter(nh, "estimate_keyframe_tilt", options.estimate_keyframe_tilt);
+    options.keyframe_tilt = readKeyframeTilt(nh, options.keyframe_tilt);
     options.closed_route_gap = readParameter(nh, "closed_route_gap", options.closed_route_gap);
     options.lines.max_angle_deg =
         readParameter(nh, "line_max_angle_deg", options.lines.max_angle_deg);
