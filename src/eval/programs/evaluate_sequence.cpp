@@ -158,13 +158,16 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     args.fail(e.what());
   }
+  const std::string teach_tilt = args.text("teach-tilt");
+  if (teach_tilt != "auto" && teach_tilt != "0" && teach_tilt != "1") args.fail("--teach-tilt must be auto, 0 or 1");
+  options.teach.keyframe_tilt = teach_tilt == "auto" ? KeyframeTilt::kAuto
+                                : teach_tilt == "1"  ? KeyframeTilt::kEstimate
+                                                     : KeyframeTilt::kLevel;
   options.image_scale = args.number("scale");
   options.teach.features.max_features = args.integer("max-features");
   options.repeat.localization.max_features = args.integer("max-features");
   options.teach.first_plane_distance = args.number("first-plane-distance");
   options.teach.planes_from_odometry = !(options.teach.first_plane_distance > 0.0);
-  const std::string teach_tilt = args.text("teach-tilt");
-  options.teach.keyframe_tilt = keyframeTiltFromString(teach_tilt == "1" ? "true" : teach_tilt == "0" ? "false" : teach_tilt);
   options.repeat.localization.max_plane_residual_px = args.number("max-plane-residual");
   options.teach.keyframes.distance = args.number("keyframe-distance");
   options.teach.keyframes.angle = args.number("keyframe-angle");
