@@ -27,11 +27,21 @@ struct Chain {
 
 }  // namespace
 
+int VerticalLineOptions::minLengthFor(int image_rows) const {
+  if (min_length_px > 0) return min_length_px;
+  return std::max(3, static_cast<int>(std::lround(min_length_fraction * image_rows)));
+}
+
 void VerticalLineOptions::validate() const {
   if (!(max_angle_deg > 0.0 && max_angle_deg < 45.0)) {
     throw std::invalid_argument("vertical lines: max_angle_deg must be in (0, 45)");
   }
-  if (min_length_px < 3) throw std::invalid_argument("vertical lines: min_length_px must be >= 3");
+  if (min_length_px != 0 && min_length_px < 3) {
+    throw std::invalid_argument("vertical lines: min_length_px must be 0 (a fraction of the image height) or >= 3");
+  }
+  if (!(min_length_fraction > 0.0 && min_length_fraction <= 1.0)) {
+    throw std::invalid_argument("vertical lines: min_length_fraction must be in (0, 1]");
+  }
   // 1020 = 4 · 255, the largest |gx| of the 3x3 Sobel on an 8-bit image: a higher threshold finds
   // nothing (and would not fit the int threshold; found by fuzz_vertical_lines).
   if (!(min_gradient > 0.0 && min_gradient <= 1020.0)) {
@@ -69,7 +79,8 @@ Expected<std::vector<VerticalLine>> VerticalLineExtractor::extract(const cv::Mat
                       std::to_string(camera->height()));
   }
   std::vector<VerticalLine> lines;
-  if (width < 3 || height < options_.min_length_px) return lines;
+  const int min_length = options_.minLengthFor(height);
+  if (width < 3 || height < min_length) return lines;
 
   cv::Sobel(gray_, gx_, CV_16S, 1, 0, 3);
   cv::Sobel(gray_, gy_, CV_16S, 0, 1, 3);
@@ -135,8 +146,7 @@ Expected<std::vector<VerticalLine>> VerticalLineExtractor::extract(const cv::Mat
   std::vector<Eigen::Vector2d> fit_points;
   for (const Chain& chain : chains) {
     const int rows = chain.last_row - chain.first_row + 1;
-    if (rows < options_.min_length_px ||
-        static_cast<int>(chain.points.size()) < options_.min_length_px * 2 / 3) {
+    if (rows < min_length || static_cast<int>(chain.points.size()) < min_length * 2 / 3) {
       continue;
     }
     // The straightness test and the line fit are done where lines are straight: in undistorted

@@ -146,6 +146,42 @@ TEST(VerticalLines, ARelativeThresholdFollowsTheImagesContrast) {
   EXPECT_THROW(VerticalLineExtractor{relative}, std::invalid_argument);
 }
 
+// The shortest line kept scales with the image unless given in rows (min_length_px > 0): 5.2 % of
+// the height, 25 rows of 480, 20 of KITTI 07's 376, 10 of 188. A 24-row edge is a line in a
+// 376-row image, not in a 480-row one.
+TEST(VerticalLines, TheShortestLineScalesWithTheImage) {
+  const VerticalLineOptions defaults;
+  EXPECT_EQ(defaults.minLengthFor(480), 25);
+  EXPECT_EQ(defaults.minLengthFor(376), 20);
+  EXPECT_EQ(defaults.minLengthFor(188), 10);
+  EXPECT_EQ(defaults.minLengthFor(20), 3);  // never below 3 rows
+  VerticalLineOptions rows = defaults;
+  rows.min_length_px = 15;
+  EXPECT_EQ(rows.minLengthFor(480), 15);
+  EXPECT_EQ(rows.minLengthFor(188), 15);
+
+  VerticalLineExtractor extractor;
+  const auto tall = extractor.extract(bands({300.4}, {40, 200}, 640, 480, 200, 224));
+  ASSERT_TRUE(tall.isOk()) << tall.status().toString();
+  EXPECT_TRUE(tall->empty());
+  VerticalLineOptions twenty_rows;
+  twenty_rows.min_length_px = 20;
+  const auto tall_twenty = VerticalLineExtractor(twenty_rows).extract(bands({300.4}, {40, 200}, 640, 480, 200, 224));
+  ASSERT_TRUE(tall_twenty.isOk()) << tall_twenty.status().toString();
+  EXPECT_EQ(tall_twenty->size(), 1u);  // the same edge, 20 rows asked
+  const auto short_image = extractor.extract(bands({300.4}, {40, 200}, 640, 376, 150, 174));
+  ASSERT_TRUE(short_image.isOk()) << short_image.status().toString();
+  ASSERT_EQ(short_image->size(), 1u);
+  EXPECT_NEAR(short_image->front().x, 300.4, 0.1);
+
+  VerticalLineOptions bad;
+  bad.min_length_px = 2;
+  EXPECT_THROW(VerticalLineExtractor{bad}, std::invalid_argument);
+  bad = VerticalLineOptions{};
+  bad.min_length_fraction = 0.0;
+  EXPECT_THROW(VerticalLineExtractor{bad}, std::invalid_argument);
+}
+
 TEST(VerticalLines, NoVerticalStructureGivesNoLines) {
   VerticalLineExtractor extractor;
   const cv::Mat blank(480, 640, CV_8UC1, cv::Scalar(128));

@@ -132,7 +132,7 @@ cli::Arguments sequenceArguments() {
       "   the pairs' measured relative tilt exceeds 0.003 rad, teach_node's estimate_keyframe_tilt)\n"
       "  [--heading-sigma RAD] [--common-shift-sigma PX] (a heading error many matches do not average away, added to the covariance)\n"
       "  [--mu-line-landmarks 0|1] (mu: each keyframe line triangulated with its own depth, a fix from every line)\n"
-      "  [--line-min-length PX] (shortest vertical line kept, teach and repeat)\n"
+      "  [--line-min-length PX] (shortest vertical line kept, teach and repeat; 0: 5.2 % of the image height)\n"
       "  [--shift-heading 0|1] (hybrid: the seasonal heading fix where no other fix, RepeatPipelineOptions)\n"
       "  [--hybrid-fuse-both 0|1] (hybrid: the mu fix also beside an accepted Fast-HD pose)\n"
       "  [--plots 0|1]");

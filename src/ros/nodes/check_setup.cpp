@@ -10,7 +10,7 @@
 // camera, commonly the last to come up), at the latest after startup_wait seconds.
 // Parameters (private): duration [s] 5, startup_wait [s] 10, base_frame base_link, camera_frame (default: camera_info's
 // frame_id), feature_type sift, min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2,
-// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 25,
+// max_tilt 0.035 rad, min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 0 (5.2 % of the image height),
 // image_transport raw (or compressed: camera/image_raw/compressed, JPEG or PNG).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <image_transport/image_transport.h>
@@ -59,7 +59,7 @@ const char* const kUsage =
     "at the latest after `startup_wait` seconds (drivers started beside check_setup get the time to come up).\n"
     "Exit 0: ready to teach; 1: a problem blocks teaching; 2: bad parameters.\n"
     "Other parameters: min_image_rate 5, min_odometry_rate 10, max_stamp_offset 0.2 s, max_tilt 0.035 rad,\n"
-    "min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 25 (docs/using.md).\n";
+    "min_features 300, min_vertical_lines 10, min_shift_features 200, line_min_length_px 0: 5.2 % of the image height (docs/using.md).\n";
 
 Settings readSettings(const ros::NodeHandle& p) {
   Settings s;
