@@ -101,6 +101,7 @@ Status TeachNode::finishMap(std::string* summary) {
   *summary = std::to_string(report->planes.keyframes) + " keyframes, " + std::to_string(report->planes.planes) +
              " with a plane; route '" + route_name_ + "' in the map " + map_directory_ + " (" +
              report->relative_directory + "), " + std::to_string(report->junctions.size()) + " junction(s)";
+  if (options_.planes_from_odometry) *summary += "; " + describeKeyframeTilt(report->planes, options_.keyframe_tilt);
   for (const Junction& j : report->junctions) {
     *summary += "; " + toString(j.from) + " <-> " + toString(j.to) + " (" + std::to_string(j.inliers) + " inliers)";
   }
