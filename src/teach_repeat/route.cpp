@@ -252,24 +252,17 @@ std::optional<double> routeMatchResidual(const Route& route) {
   return upperMedian(std::move(values));
 }
 
-std::optional<double> tiltSigmaOf(const std::vector<PairTilt>& tilts) {
+std::optional<double> routeTiltSigma(const Route& route) {
+  if (!route.info.tilt_measured) return std::nullopt;
   std::vector<double> magnitudes;
-  for (const PairTilt& tilt : tilts) {
-    magnitudes.push_back(std::abs(tilt.pitch));
-    magnitudes.push_back(std::abs(tilt.roll));
-  }
+  forEachPairMeasurement(route, [&](const std::optional<MatchResidual>&, const std::optional<PairTilt>& tilt) {
+    if (!tilt) return;
+    magnitudes.push_back(std::abs(tilt->pitch));
+    magnitudes.push_back(std::abs(tilt->roll));
+  });
   const std::optional<double> median = upperMedian(std::move(magnitudes));
   if (!median) return std::nullopt;
   return 1.4826 * *median;  // the median of |x| is 0.6745 σ for a zero-mean normal x
-}
-
-std::optional<double> routeTiltSigma(const Route& route) {
-  if (!route.info.tilt_measured) return std::nullopt;
-  std::vector<PairTilt> tilts;
-  forEachPairMeasurement(route, [&](const std::optional<MatchResidual>&, const std::optional<PairTilt>& tilt) {
-    if (tilt) tilts.push_back(*tilt);
-  });
-  return tiltSigmaOf(tilts);
 }
 
 Status writeRouteIndex(const Route& route) {

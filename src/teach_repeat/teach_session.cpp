@@ -176,11 +176,7 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   }
   const Status measured = writer_->setMeasuredNoise(residuals, tilts);  // written with the planes below
   if (!measured.isOk()) return measured;
-  std::vector<PairTilt> measured_tilts;
-  for (const auto& tilt : tilts) {
-    if (tilt) measured_tilts.push_back(*tilt);
-  }
-  report.measured_tilt_rad = tiltSigmaOf(measured_tilts);
+  report.measured_tilt_rad = routeTiltSigma(route);  // the tilts just measured
   report.keyframe_tilt_estimated = estimatesKeyframeTilt(options_.keyframe_tilt, report.measured_tilt_rad);
   std::vector<std::optional<ScenePlane>> planes(route.keyframes.size());
   OdometryPlaneOptions plane_options;

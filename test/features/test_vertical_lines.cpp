@@ -173,13 +173,6 @@ TEST(VerticalLines, TheShortestLineScalesWithTheImage) {
   ASSERT_TRUE(short_image.isOk()) << short_image.status().toString();
   ASSERT_EQ(short_image->size(), 1u);
   EXPECT_NEAR(short_image->front().x, 300.4, 0.1);
-
-  VerticalLineOptions bad;
-  bad.min_length_px = 2;
-  EXPECT_THROW(VerticalLineExtractor{bad}, std::invalid_argument);
-  bad = VerticalLineOptions{};
-  bad.min_length_fraction = 0.0;
-  EXPECT_THROW(VerticalLineExtractor{bad}, std::invalid_argument);
 }
 
 TEST(VerticalLines, NoVerticalStructureGivesNoLines) {
@@ -209,6 +202,12 @@ TEST(VerticalLines, BadInput) {
             StatusCode::kInvalidInput);
   VerticalLineOptions options;
   options.max_angle_deg = 0.0;
+  EXPECT_THROW(VerticalLineExtractor{options}, std::invalid_argument);
+  options = VerticalLineOptions{};
+  options.min_length_px = 2;  // rows: 0 (a share of the height) or at least 3
+  EXPECT_THROW(VerticalLineExtractor{options}, std::invalid_argument);
+  options = VerticalLineOptions{};
+  options.min_length_fraction = 0.0;
   EXPECT_THROW(VerticalLineExtractor{options}, std::invalid_argument);
   // Found by fuzz_vertical_lines: a threshold beyond any 8-bit Sobel response (it overflowed the
   // int threshold) is refused; a huge brightness offset samples nothing instead of overflowing.

@@ -130,8 +130,6 @@ std::optional<double> routeMatchResidual(const Route& route);
 // a corner whose homography mixes two surfaces does not set it); nullopt when not measured or no
 // pair has one.
 std::optional<double> routeTiltSigma(const Route& route);
-// The same std of a set of pairs' tilts (nullopt for none): what routeTiltSigma takes of a route's.
-std::optional<double> tiltSigmaOf(const std::vector<PairTilt>& tilts);
 
 // Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed
 // along a path through a map of routes, network/path_route.h, names files of several routes),

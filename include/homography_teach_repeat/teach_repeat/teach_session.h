@@ -31,7 +31,7 @@ namespace homography_teach_repeat {
 // and rolls with the body between keyframes, which otherwise reads as a wrong plane; where the
 // images are level the two extra unknowns only cost precision.
 enum class KeyframeTilt {
-  kAuto,      // estimated where the pairs' measured relative tilt (tiltSigmaOf) exceeds kTiltedBodySigma
+  kAuto,      // estimated where the pairs' measured relative tilt (routeTiltSigma) exceeds kTiltedBodySigma
   kEstimate,  // always
   kLevel,     // never (an IMU levels the images, the simulator)
 };
@@ -75,7 +75,7 @@ struct TeachOptions {
 struct PlaneEstimationReport {
   int keyframes = 0;
   int planes = 0;  // keyframes that received a plane
-  std::optional<double> measured_tilt_rad;  // the pairs' relative tilt (tiltSigmaOf), where measured
+  std::optional<double> measured_tilt_rad;  // the pairs' relative tilt (routeTiltSigma), where measured
   bool keyframe_tilt_estimated = false;     // the planes were estimated with each pair's tilt
   std::vector<std::string> messages;  // one line per problem (pair and reason)
 };

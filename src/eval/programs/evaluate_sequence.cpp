@@ -160,9 +160,7 @@ int main(int argc, char** argv) {
   }
   const std::string teach_tilt = args.text("teach-tilt");
   if (teach_tilt != "auto" && teach_tilt != "0" && teach_tilt != "1") args.fail("--teach-tilt must be auto, 0 or 1");
-  options.teach.keyframe_tilt = teach_tilt == "auto" ? KeyframeTilt::kAuto
-                                : teach_tilt == "1"  ? KeyframeTilt::kEstimate
-                                                     : KeyframeTilt::kLevel;
+  options.teach.keyframe_tilt = keyframeTiltFromString(teach_tilt == "auto" ? "auto" : teach_tilt == "1" ? "true" : "false");
   options.image_scale = args.number("scale");
   options.teach.features.max_features = args.integer("max-features");
   options.repeat.localization.max_features = args.integer("max-features");
