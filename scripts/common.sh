@@ -29,7 +29,7 @@ HTR_DEBIAN_PACKAGES=(
   rviz xvfb xauth imagemagick
 )
 
-htr_log() { printf '\n==> %s\n' "$*"; }
+htr_log() { printf '\n==> [%s] %s\n' "$(date +%T)" "$*"; }
 
 htr_install_dependencies() {
   local missing=()
