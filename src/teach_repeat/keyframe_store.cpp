@@ -20,25 +20,6 @@ namespace {
 constexpr double kTurnKeyframeAngle = 0.1;  // [rad]
 constexpr double kTurnKeyframeRate = 1.0;   // [rad/m]
 
-// RepeatOptions::pixel_noise_per_keyframe: the RMS residual of the measured pairs that include
-// keyframe k (k-1 -> k and k -> k+1) over the route's (`route_residual`, routeMatchResidual),
-// within [0.5, 2]: a corner's pair can see two walls, and its residual says more of that than of
-// the pixels.
-double keyframeNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual) {
-  constexpr double kSmallest = 0.5;
-  constexpr double kLargest = 2.0;
-  if (!route_residual) return 1.0;
-  double squares = 0.0;
-  int pairs = 0;
-  for (const std::size_t j : {k - 1, k}) {  // (k - 1 wraps for k = 0: out of range)
-    if (j >= route.keyframes.size() || !route.keyframes[j].match_residual) continue;
-    squares += std::pow(route.keyframes[j].match_residual->rms_px, 2);
-    ++pairs;
-  }
-  if (pairs == 0) return 1.0;
-  return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
-}
-
 // measurePlaneAgreement's last step. One or two differences make a noisy variance: two planes that
 // agree by chance (χ² with one degree of freedom is below 0.01 of its mean one time in twelve) are
 // no evidence of an exact plane. The route's median variance counts as kPriorDegrees differences
@@ -70,6 +51,23 @@ void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vec
   }
 }
 }  // namespace
+
+double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual) {
+  // Within [0.5, 2]: a corner's pair can see two walls, and its residual says more of that than of
+  // the pixels.
+  constexpr double kSmallest = 0.5;
+  constexpr double kLargest = 2.0;
+  if (!route_residual) return 1.0;
+  double squares = 0.0;
+  int pairs = 0;
+  for (const std::size_t j : {k - 1, k}) {  // (k - 1 wraps for k = 0: out of range)
+    if (j >= route.keyframes.size() || !route.keyframes[j].match_residual) continue;
+    squares += std::pow(route.keyframes[j].match_residual->rms_px, 2);
+    ++pairs;
+  }
+  if (pairs == 0) return 1.0;
+  return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
+}
 
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
   return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
@@ -108,7 +106,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       if (!features) return features.status();
       reference.features = std::move(*features);
     }
-    if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframeNoiseScale(route, k, route_residual);
+    if (options.pixel_noise_per_keyframe) reference.pixel_noise_scale = keyframePixelNoiseScale(route, k, route_residual);
     if (k > 0) {
       // A corner keyframe: reached turning, or where the teach run started turning (its heading is
       // the straight segment's, but the walls of the corner are as near).

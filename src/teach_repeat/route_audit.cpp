@@ -17,11 +17,6 @@
 namespace homography_teach_repeat {
 namespace {
 
-// The range of RouteAuditOptions::pixel_noise_from_neighbours' scale: a pair of keyframes at a
-// corner can see two walls, and its residual says more of that than of the pixels.
-constexpr double kSmallestNoiseScale = 0.5;
-constexpr double kLargestNoiseScale = 2.0;
-
 constexpr double kDegreesPerRadian = 180.0 / M_PI;
 
 // A neighbour whose camera stood closer than this to the keyframe's saw the same picture
@@ -37,7 +32,8 @@ std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0
 
 // The covariance of a Fast-HD fix from the keyframe's plane features seen by a camera
 // `offset` to the right (exact matches: the covariance is the model's, not a sample's), with the
-// repeat's pixel σ times `pixel_noise_scale` (RouteAuditOptions::pixel_noise_from_neighbours).
+// repeat's pixel σ times the keyframe's own scale (KeyframeReference::pixel_noise_scale, the
+// repeat's: keyframePixelNoiseScale).
 // In base_link of the robot (x forward, y left, yaw); covariance = model + the keyframe image's
 // pixel noise (reference_noise) + the current image's (current_noise), all with every feature in
 // view matched. The pixel σ is also scaled by how much the probe's view stretches the features
@@ -70,8 +66,7 @@ PointMatches planeFeaturesInView(const KeyframeReference& reference, const Pinho
 }
 
 Expected<PredictedFix> predictFix(const KeyframeReference& reference, const PinholeCamera& camera,
-                                  const CameraMount& mount, const RouteAuditOptions& options,
-                                  double pixel_noise_scale) {
+                                  const CameraMount& mount, const RouteAuditOptions& options) {
   const PlanarPose probe(options.probe_offset_m, 0.0, 0.0);
   const Eigen::Matrix3d H = planeInducedHomography(camera, probe, *reference.plane);
   const PointMatches matches = planeFeaturesInView(reference, camera, H);
@@ -79,7 +74,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   for (const PointMatch& match : matches) seen.push_back(match.reference);
   const double stretch = matchStretchNoiseScale(H, seen, options.stretch_noise_gain);
   PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
-  pose_options.pixel_sigma_px *= pixel_noise_scale * stretch;
+  pose_options.pixel_sigma_px *= reference.pixel_noise_scale * stretch;
   // The plane's disagreement with its neighbours enters the prediction only where it enters the
   // repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6, docs/route_audit.md).
   if (options.repeat.plane_sigma_from_neighbours) {
@@ -104,37 +99,25 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
 // homography's inliers and, where the reference has a plane, the base pose it gives.
 struct Relocalization {
   int inliers = 0;
-  double rms_transfer_error_px = 0.0;  // of the inliers against their homography
-  Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // the inliers' homography, reference to current
-  std::vector<Eigen::Vector2d> inlier_pixels;      // the inliers' reference pixels
   std::optional<Pose2D> relative;  // current's base in reference's base frame
 };
 
 Relocalization relocalize(const KeyframeReference& reference, const ImageFeatures& current, const PinholeCamera& camera,
                           const CameraMount& mount, const RepeatOptions& repeat) {
   Relocalization result;
-  const auto keepInliers = [&result](const PointMatches& points, const Eigen::Matrix3d& H, const std::vector<int>& inliers) {
-    result.inliers = static_cast<int>(inliers.size());
-    result.H = H;
-    for (const int i : inliers) result.inlier_pixels.push_back(points[static_cast<std::size_t>(i)].reference);
-  };
   const auto matches = matchFeatures(reference.features, current, repeat.matching);
   if (!matches || matches->size() < 4) return result;
   const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
   if (reference.plane) {
     const auto pose = estimatePlanarPose(points, camera, *reference.plane, repeat.pose);
     if (pose) {
-      keepInliers(points, pose->H, pose->inliers);
-      result.rms_transfer_error_px = pose->rms_transfer_error_px;
+      result.inliers = static_cast<int>(pose->inliers.size());
       result.relative = mount.cameraToBase(pose->pose);
     }
     return result;
   }
   const auto homography = estimateHomographyRobust(points, repeat.pose.robust);
-  if (homography) {
-    keepInliers(points, homography->H, homography->inliers);
-    result.rms_transfer_error_px = homography->rms_transfer_error_px;
-  }
+  if (homography) result.inliers = static_cast<int>(homography->inliers.size());
   return result;
 }
 
@@ -213,26 +196,16 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
       reference.features = stored[static_cast<std::size_t>(k)];
       reference.plane = route.keyframes[static_cast<std::size_t>(k)].plane;
       reference.base_pose = route.keyframes[static_cast<std::size_t>(k)].pose;
+      if (options.repeat.pixel_noise_per_keyframe) {
+        reference.pixel_noise_scale = keyframePixelNoiseScale(route, static_cast<std::size_t>(k), routeMatchResidual(route));
+      }
       references.push_back(std::move(reference));
     }
   }
 
   // How much of each keyframe the repeat matches from a nearby view: the better of its two
   // neighbours' inliers against it (where the teach run turned in place one neighbour faces
-  // another wall; also without the aliasing search). And how noisy its matches are: the inliers'
-  // residual against their homography, over the neighbours that stood elsewhere, less what the
-  // neighbour's view stretching them adds (stretch_noise_gain; docs/route_audit.md).
-  struct Residual {
-    double squares = 0.0;  // Σ inliers · (rms / stretch)²
-    long inliers = 0;
-    void add(const Relocalization& found, double stretch_noise_scale) {
-      if (found.inliers <= 0 || !std::isfinite(found.rms_transfer_error_px)) return;
-      const double unstretched = found.rms_transfer_error_px / stretch_noise_scale;
-      squares += unstretched * unstretched * found.inliers;
-      inliers += found.inliers;
-    }
-    double rms() const { return inliers > 0 ? std::sqrt(squares / static_cast<double>(inliers)) : 0.0; }
-  };
+  // another wall; also without the aliasing search).
   std::vector<int> neighbour_inliers(static_cast<std::size_t>(n), -1);
   // The part of its plane features in a neighbour's view that the neighbour matched: the better
   // neighbour's (one that sees at least min_inliers of them). Where the teach run turned in place
@@ -250,8 +223,6 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
     double unstretched() const { return fraction / match_chance_scale; }
   };
   std::vector<NeighbourPart> neighbour_part(static_cast<std::size_t>(n));
-  std::vector<Residual> residuals(static_cast<std::size_t>(n));
-  Residual route_residual;
   for (int k = 0; k < n; ++k) {
     const auto i = static_cast<std::size_t>(k);
     for (const int neighbour : {k - 1, k + 1}) {
@@ -264,11 +235,8 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
       neighbour_inliers[i] = std::max(neighbour_inliers[i], found.inliers);
       const Pose2D relative = route.keyframes[i].pose.inverse().compose(route.keyframes[static_cast<std::size_t>(neighbour)].pose);
       const PlanarPose camera_relative = mount.baseToCamera(relative);
-      // Its part and its residual count only if it stood elsewhere: the same picture re-projected
-      // matches more, and more closely, than a view from elsewhere (docs/route_audit.md: the room's
-      // closing keyframe 32, whose one neighbour turned in place, was given 0.87 of the route's
-      // noise where its fixes had the route's). A keyframe without one keeps the route's part
-      // (below) and noise (pixel_noise_scale 1).
+      // Its part counts only if it stood elsewhere: the same picture re-projected matches more
+      // than a view from elsewhere. A keyframe without one keeps the route's part (below).
       if (std::hypot(camera_relative.x, camera_relative.z) < kSameViewpointM) continue;
       if (references[i].plane) {
         const Eigen::Matrix3d H = planeInducedHomography(camera, camera_relative, *references[i].plane);
@@ -282,9 +250,6 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
           neighbour_part[i] = part;
         }
       }
-      const double stretch = matchStretchNoiseScale(found.H, found.inlier_pixels, options.stretch_noise_gain);
-      residuals[i].add(found, stretch);
-      route_residual.add(found, stretch);
     }
   }
 
@@ -307,15 +272,12 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
     a.lines = static_cast<int>(lines->at(k).lines.size());
     a.line_landmarks = static_cast<int>(lines->at(k).line_landmarks.size());
     a.neighbour_inliers = neighbour_inliers[static_cast<std::size_t>(k)];
-    const double residual = residuals[static_cast<std::size_t>(k)].rms();
-    if (options.pixel_noise_from_neighbours && residual > 0.0 && route_residual.rms() > 0.0) {
-      a.pixel_noise_scale = std::clamp(residual / route_residual.rms(), kSmallestNoiseScale, kLargestNoiseScale);
-    }
+    a.pixel_noise_scale = reference.pixel_noise_scale;
     if (a.has_plane) {
       a.plane_distance_m = reference.plane->distance;
       a.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
       a.plane_distance_sigma = reference.plane_distance_sigma;
-      const auto predicted = predictFix(reference, camera, mount, options, a.pixel_noise_scale);
+      const auto predicted = predictFix(reference, camera, mount, options);
       if (!predicted) {
         a.prediction_problem = predicted.status().toString();
       } else {

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <string>
 
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 #include "homography_teach_repeat/teach_repeat/route_audit.h"
 #include "support/synthetic_route_test.h"
 
@@ -97,10 +98,10 @@ TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
   }
 }
 
-// Each keyframe's pixel noise from its neighbours' matches (pixel_noise_from_neighbours,
-// docs/route_audit.md): on one wall the scales are near 1; keyframe 2's keypoints moved by 1.5 px
-// (a texture that matches less sharply) give it the largest scale, above its neighbours' (one of
-// their two pairs is with it) and a larger predicted σ; with the option off every scale is 1.
+// Each keyframe's pixel noise is the repeat's (keyframePixelNoiseScale, docs/route_audit.md): the
+// teach pairs' residuals, as the route stores them. With the pairs 1 -> 2 and 2 -> 3 measured 3
+// times noisier, keyframe 2 (both its pairs) gets the largest scale, above keyframes 1 and 3 (one
+// pair each), and a larger predicted σ; with repeat.pixel_noise_per_keyframe off every scale is 1.
 TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
   RouteAuditOptions options;
   options.aliasing = false;
@@ -111,18 +112,13 @@ TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
     EXPECT_LT(a.pixel_noise_scale, 1.6) << a.keyframe;
   }
 
-  const std::string copy = copyRouteDirectory(route(), "htr_noisy_keyframe_route");
-  auto noisy = loadRoute(copy);
-  ASSERT_TRUE(noisy.isOk()) << noisy.status().toString();
-  auto features = loadKeyframeFeatures(*noisy, 2);
-  ASSERT_TRUE(features.isOk()) << features.status().toString();
-  cv::RNG rng(3);
-  for (cv::KeyPoint& keypoint : features->keypoints) {
-    keypoint.pt.x += static_cast<float>(rng.gaussian(1.5));
-    keypoint.pt.y += static_cast<float>(rng.gaussian(1.5));
+  Route noisy = route();
+  ASSERT_GE(noisy.keyframes.size(), 5u);
+  for (const std::size_t pair : {1u, 2u}) {
+    ASSERT_TRUE(noisy.keyframes[pair].match_residual) << pair;
+    noisy.keyframes[pair].match_residual->rms_px *= 3.0;
   }
-  ASSERT_TRUE(writeKeyframeFeatures(*noisy, 2, *features).isOk());
-  const auto audited = auditRoute(*noisy, options);
+  const auto audited = auditRoute(noisy, options);
   ASSERT_TRUE(audited.isOk()) << audited.status().toString();
   const auto& k = audited->keyframes;
   EXPECT_GT(k[2].pixel_noise_scale, 1.3 * plain->keyframes[2].pixel_noise_scale);
@@ -130,12 +126,13 @@ TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
   EXPECT_GT(k[2].pixel_noise_scale, k[3].pixel_noise_scale);
   ASSERT_TRUE(k[2].predicted_covariance && plain->keyframes[2].predicted_covariance);
   EXPECT_GT(positionSigma(k[2]), 1.3 * positionSigma(plain->keyframes[2]));
+  // The same scale as the repeat's store gives that keyframe.
+  EXPECT_EQ(k[2].pixel_noise_scale, keyframePixelNoiseScale(noisy, 2, routeMatchResidual(noisy)));
 
-  options.pixel_noise_from_neighbours = false;
-  const auto configured = auditRoute(*noisy, options);
+  options.repeat.pixel_noise_per_keyframe = false;
+  const auto configured = auditRoute(noisy, options);
   ASSERT_TRUE(configured.isOk()) << configured.status().toString();
   for (const KeyframeAudit& a : configured->keyframes) EXPECT_EQ(a.pixel_noise_scale, 1.0) << a.keyframe;
-  std::filesystem::remove_all(copy);
 }
 
 TEST_F(RouteAuditTest, AKeyframeWithoutAPlaneAndTooFewLinesIsNamed) {
@@ -246,9 +243,8 @@ TEST_F(RouteAuditTest, TheNeighboursPartIsOverThePlaneFeaturesItSees) {
 
 // A neighbour whose camera stood where the keyframe's did (a turn in place) sees the same picture
 // re-projected and does not say what a view from elsewhere matches: with keyframe 1 recorded where
-// keyframe 0 was, keyframe 0 (whose only neighbour it is) takes the route's median part instead,
-// and the route's pixel noise (its neighbour's residual, the same picture's, would be too small).
-TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartAndNoiseDo) {
+// keyframe 0 was, keyframe 0 (whose only neighbour it is) takes the route's median part instead.
+TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartDoes) {
   RouteAuditOptions options;
   options.aliasing = false;
   options.match_stretch_decay = 0.0;  // each part as matched, so the median is of the fractions reported
@@ -270,12 +266,6 @@ TEST_F(RouteAuditTest, ANeighbourTurnedInPlaceDoesNotCountTheRoutesPartAndNoiseD
   EXPECT_NEAR(first.expected_match_fraction, std::min(1.0, parts[parts.size() / 2]), 1e-12);
   // Further along, the neighbours stood elsewhere and count.
   EXPECT_GE(audit->keyframes[3].neighbour_match_fraction, 0.0);
-  // Nor does its residual say keyframe 0's pixel noise: it keeps the route's, where with its
-  // neighbour taken elsewhere the residual gives it its own.
-  EXPECT_EQ(first.pixel_noise_scale, 1.0);
-  const auto plain = auditRoute(route(), options);
-  ASSERT_TRUE(plain.isOk()) << plain.status().toString();
-  EXPECT_GT(std::abs(plain->keyframes[0].pixel_noise_scale - 1.0), 1e-3);
 }
 
 // Of a predicted fix, the current image's pixel noise differs from one fix to the next at a
@@ -329,7 +319,6 @@ TEST_F(RouteAuditTest, TheFixToFixPartIsTheCurrentImagesNoiseAndTheKeyframesNotM
 TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
   RouteAuditOptions options;
   options.aliasing = false;
-  options.pixel_noise_from_neighbours = false;  // the thinned neighbour's residuals aside
   options.repeat.plane_feature_tolerance_px = 0.0;  // keyframe 0's features all, whatever its neighbour
   const auto plain = auditRoute(route(), options);
   ASSERT_TRUE(plain.isOk()) << plain.status().toString();
@@ -446,7 +435,6 @@ TEST_F(RouteAuditTest, AProbeThatStretchesTheFeaturesMoreIsExpectedToMatchLess) 
 TEST_F(RouteAuditTest, TheProbesStretchScalesThePixelNoise) {
   RouteAuditOptions options;
   options.aliasing = false;
-  options.pixel_noise_from_neighbours = false;  // the neighbours' own stretch aside
   options.repeat.plane_sigma_from_neighbours = false;  // no model terms: the pixel noise alone
   options.repeat.pose.common_shift_sigma_px = 0.0;
   options.stretch_noise_gain = 0.0;

@@ -45,6 +45,13 @@ struct KeyframeReference {
 // the keyframe spacing).
 bool turnedBetween(const Pose2D& a, const Pose2D& b);
 
+// Keyframe k's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe,
+// KeyframeReference::pixel_noise_scale; docs/math.md §3.9): the RMS match residual of the teach
+// run's pairs that include it (k − 1 → k and k → k + 1) over `route_residual` (routeMatchResidual),
+// within [0.5, 2]; 1 where neither pair nor the route was measured. The repeat and the route audit
+// both take it from here.
+double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual);
+
 class KeyframeStore {
  public:
   // Loads what `options.mode` needs of every keyframe. kInvalidInput naming the file for a corrupt

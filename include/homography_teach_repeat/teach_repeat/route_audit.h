@@ -39,16 +39,13 @@ struct RouteAuditOptions {
   double alias_position_tolerance_m = 0.5;
   double alias_heading_tolerance_rad = 0.087;
   int min_lines = 10;
-  // Each keyframe's pixel noise relative to the route's: the residual of its inliers against their
-  // homography when its neighbours are matched to it (those whose camera stood elsewhere; with
-  // none, 1), over the route's (clamped to [0.5, 2]),
-  // scales repeat.pose.pixel_sigma_px in its prediction. A wall whose texture matches less
-  // sharply gives noisier fixes (docs/route_audit.md). false: the configured σ everywhere.
-  bool pixel_noise_from_neighbours = true;
+  // Each keyframe's pixel noise relative to the route's is the repeat's (repeat.pixel_noise_per_keyframe:
+  // its teach pairs' residual over the route's; keyframePixelNoiseScale), so the prediction is
+  // the covariance the repeat will claim there.
   // How much noisier a match is where the other view sees its keypoint stretched (matchStretchNoiseScale):
   // the gain κ of 1 + κ (a − 1), a the local stretch [0-10; 0: not modelled]. It scales the
-  // prediction's pixel σ by the probe's stretch, and takes the neighbours' own stretch out of
-  // their residual (docs/route_audit.md: 2, measured in the simulator's room).
+  // prediction's pixel σ by the probe's stretch (docs/route_audit.md: 2, measured in the
+  // simulator's room).
   double stretch_noise_gain = 2.0;
   // How much rarer a match is where the other view stretches its keypoint: a plane feature matches
   // with a chance exp(−λ (a − 1)) times its keyframe's own (matchChanceScale), λ this decay [0-10;
@@ -98,10 +95,12 @@ struct KeyframeAudit {
   int lines = 0;
   int line_landmarks = 0;
   int neighbour_inliers = -1;  // the better of the previous and the next keyframe's image matched to it; -1: a route of one keyframe
-  double pixel_noise_scale = 1.0;  // the keyframe's pixel σ over the configured one (pixel_noise_from_neighbours)
+  // The keyframe's pixel σ over the route's, as the repeat scales it (keyframePixelNoiseScale; 1
+  // with repeat.pixel_noise_per_keyframe off).
+  double pixel_noise_scale = 1.0;
   // The probe's pixel σ over the keyframe's: its view stretches the keyframe's plane features
   // (matchStretchNoiseScale with stretch_noise_gain; 1: not at all, or not modelled). The
-  // prediction's pixel σ is the configured one × pixel_noise_scale × stretch_noise_scale.
+  // prediction's pixel σ is the route's × pixel_noise_scale × stretch_noise_scale.
   double stretch_noise_scale = 1.0;
   int alias_keyframe = -1;     // the other keyframe that matched best with a pose that is not the taught one
   int alias_inliers = 0;

@@ -156,16 +156,17 @@ const char* const kErrorPartNames[kErrorParts] = {"current_part", "current_part_
 }  // namespace
 
 int main(int argc, char** argv) {
+  const RepeatOptions repeat_defaults;
   cli::Arguments args("evaluate_route_audit",
                       {{"world", ""}, {"route", ""}, {"out", ""}, {"offset", "0.3"}, {"samples", "20"},
                        {"pixel-sigma", "0.30"}, {"jitter", "0.05"}, {"jitter-yaw", "0.035"}, {"noise", "2.0"}, {"blur", "0.5"}, {"camera-height", "0.6"}, {"seed", "1"},
-                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"plots", "1"},
+                       {"plane-sigma-from-neighbours", "1"}, {"pixel-noise-per-keyframe", repeat_defaults.pixel_noise_per_keyframe ? "1" : "0"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"plots", "1"},
                        {"images", "rendered"}, {"inliers-out", ""}, {"features-out", ""}, {"supersampling", "1"}, {"texture-filtering", "1"}},
                       "--world W.yaml --route DIR --out DIR [--offset M] [--samples N] [--pixel-sigma PX|measure]\n"
                       "  [--jitter M] [--jitter-yaw RAD] (each image this far around the probe, uniformly)\n"
                       "  [--noise GREY] [--blur PX] [--camera-height M] [--supersampling K | --texture-filtering 0|1] (the simulator's camera; K > 1 replaces the filtering) [--seed S]\n"
                       "  [--plane-sigma-from-neighbours 0|1] (the prediction's plane terms, as repeat_node's)\n"
-                      "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
+                      "  [--pixel-noise-per-keyframe 0|1] (each keyframe's pixel sigma scaled by its teach pairs' residual, as the repeat's)\n"
                       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off) [--plots 0|1]\n"
                       "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
                       "  [--images rendered|warped] (warped: the keyframe's own image moved by its plane's homography)\n"
@@ -208,7 +209,7 @@ int main(int argc, char** argv) {
     // The simulator's exact camera: no common image shift (config/sim_repeat_node.yaml).
     audit_options.repeat.pose.common_shift_sigma_px = 0.0;
     audit_options.repeat.match_residual_gain = 0.0;  // the pixel σ is --pixel-sigma's
-    audit_options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
+    audit_options.repeat.pixel_noise_per_keyframe = args.integer("pixel-noise-per-keyframe") != 0;
     audit_options.stretch_noise_gain = args.number("stretch-noise-gain");
     audit_options.match_stretch_decay = args.number("match-stretch-decay");
     const bool measure_pixel_sigma = args.text("pixel-sigma") == "measure";
@@ -472,7 +473,7 @@ int main(int argc, char** argv) {
                          {"blur", render.blur_sigma}, {"camera_height_m", render.camera_height},
                          {"supersampling", render.supersampling}, {"texture_filtering", render.texture_filtering}, {"images", args.text("images")},
                          {"plane_sigma_from_neighbours", audit_options.repeat.plane_sigma_from_neighbours},
-                         {"pixel_noise_from_neighbours", audit_options.pixel_noise_from_neighbours},
+                         {"pixel_noise_per_keyframe", audit_options.repeat.pixel_noise_per_keyframe},
                          {"stretch_noise_gain", audit_options.stretch_noise_gain},
                          {"match_stretch_decay", audit_options.match_stretch_decay}};
     std::vector<double> log_predicted[3], log_measured[3], log_predicted_spread[3], log_measured_spread[3];

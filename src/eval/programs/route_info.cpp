@@ -257,7 +257,7 @@ cli::Arguments routeInfoArguments() {
        {"heading-sigma", std::to_string(pose_defaults.heading_sigma_rad)},
        {"common-shift-sigma", std::to_string(pose_defaults.common_shift_sigma_px)},
        {"plane-sigma-from-neighbours", repeat_defaults.plane_sigma_from_neighbours ? "1" : "0"},
-       {"pixel-noise-from-neighbours", "1"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
+       {"pixel-noise-per-keyframe", repeat_defaults.pixel_noise_per_keyframe ? "1" : "0"}, {"stretch-noise-gain", "2"}, {"match-stretch-decay", "1.8"}, {"min-plane-features", "40"}, {"max-position-sigma", "0.05"},
        {"max-heading-sigma", "0.0087"}, {"max-alias-ratio", "0.5"}, {"min-lines", "10"}, {"shift-heading", "1"}, {"migrate", ""}},
       "--route DIR --out DIR\n"
       "  | --migrate DIR (rewrite a route's index in the current format, docs/route_format.md)\n"
@@ -268,7 +268,7 @@ cli::Arguments routeInfoArguments() {
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--tilt-sigma RAD]\n"
       "  [--heading-sigma RAD] [--common-shift-sigma PX] [--plane-sigma-from-neighbours 0|1] (the repeat's covariance\n"
       "  terms, as repeat_node's parameters; the defaults are its defaults)\n"
-      "  [--pixel-noise-from-neighbours 0|1] (each keyframe's pixel noise from its neighbours' matches)\n"
+      "  [--pixel-noise-per-keyframe 0|1] (each keyframe's pixel sigma scaled by its teach pairs' residual, as the repeat's)\n"
       "  [--stretch-noise-gain K] (a match's noise 1 + K (stretch - 1) where the view stretches it; 0: off)\n"
       "  [--match-stretch-decay L] (a match's chance exp(-L (stretch - 1)) where the view stretches it; 0: off)\n"
       "  [--min-plane-features N] [--max-position-sigma M] [--max-heading-sigma RAD] [--max-alias-ratio R]\n"
@@ -306,7 +306,7 @@ int main(int argc, char** argv) {
   options.repeat.pose.heading_sigma_rad = args.number("heading-sigma");
   options.repeat.pose.common_shift_sigma_px = args.number("common-shift-sigma");
   options.repeat.plane_sigma_from_neighbours = args.integer("plane-sigma-from-neighbours") != 0;
-  options.pixel_noise_from_neighbours = args.integer("pixel-noise-from-neighbours") != 0;
+  options.repeat.pixel_noise_per_keyframe = args.integer("pixel-noise-per-keyframe") != 0;
   options.stretch_noise_gain = args.number("stretch-noise-gain");
   options.match_stretch_decay = args.number("match-stretch-decay");
   options.min_plane_features = args.integer("min-plane-features");
