@@ -125,13 +125,8 @@ class FastHdEstimator final : public PointEstimator {
   Expected<PlanarPose> cameraPose(const KeyframeReference& reference, const PointMatches& matches,
                                   std::vector<int>* inliers, RepeatEstimate* estimate) const override {
     const RepeatOptions& options = context_.options;
-    // The plane's uncertainty: the configured one, or the keyframe's own where that is larger.
-    PlanarPoseEstimatorOptions pose_options = options.pose;
-    pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
-    pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);
-    // The pixel σ: the route's, scaled by how closely this keyframe matched its neighbours.
-    pose_options.pixel_sigma_px *= reference.pixel_noise_scale;
-    const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, pose_options);
+    // The keyframe's own pixel σ and plane's (or its neighbours' fixes') uncertainty.
+    const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, fixPoseOptions(reference, options.pose));
     if (!pose) return pose.status();
     *inliers = pose->inliers;
     // The pose must explain the matches through the keyframe's plane. Any homography gives a
@@ -157,8 +152,10 @@ class FastHdEstimator final : public PointEstimator {
     const Status same_wall = checkPlaneNormal(pose->H, *reference.plane, matches, pose->inliers);
     if (!same_wall.isOk()) return same_wall;
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(pose->pose);
-    estimate->covariance = rotateCovariance(J * pose->covariance * J.transpose(), reference.base_pose.yaw);
-    estimate->model_covariance = rotateCovariance(J * pose->model_covariance * J.transpose(), reference.base_pose.yaw);
+    const Eigen::Matrix3d measured = neighbourFixCovariance(reference, pose->pose);
+    estimate->covariance = rotateCovariance(J * (pose->covariance + measured) * J.transpose(), reference.base_pose.yaw);
+    estimate->model_covariance =
+        rotateCovariance(J * (pose->model_covariance + measured) * J.transpose(), reference.base_pose.yaw);
     estimate->covariance_known = true;
     return pose->pose;
   }

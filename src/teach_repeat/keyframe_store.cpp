@@ -12,6 +12,7 @@
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
 
@@ -69,6 +70,20 @@ double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::opt
   return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
 }
 
+PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options) {
+  if (!reference.neighbour_fix_error_per_m2) {
+    options.plane_normal_sigma_rad = std::max(options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
+    options.plane_distance_sigma = std::max(options.plane_distance_sigma, reference.plane_distance_sigma);
+  }
+  options.pixel_sigma_px *= reference.pixel_noise_scale;
+  return options;
+}
+
+Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {
+  if (!reference.neighbour_fix_error_per_m2) return Eigen::Matrix3d::Zero();
+  return (camera_pose.x * camera_pose.x + camera_pose.z * camera_pose.z) * *reference.neighbour_fix_error_per_m2;
+}
+
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
   return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
 }
@@ -120,7 +135,10 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
   if (options.mode != RepeatMode::kMu && options.plane_feature_tolerance_px > 0.0) {
     store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
   }
-  if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) store.measurePlaneAgreement(mount);
+  if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) {
+    store.measurePlaneAgreement(mount);
+    store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
+  }
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
     store.triangulateLines(PinholeCamera(route.info.camera), mount, options.line_landmarks);
   }
@@ -152,6 +170,7 @@ Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mou
       reference.plane = *plane;
       reference.plane_normal_sigma_rad = keyframe.plane_normal_sigma_rad;
       reference.plane_distance_sigma = keyframe.plane_distance_sigma;
+      reference.neighbour_fix_error_per_m2 = keyframe.neighbour_fix_error_per_m2;
       reference.turn = keyframe.turn;
       reference.pixel_noise_scale = keyframe.pixel_noise_scale;
       reference.experience = learned.id;
@@ -251,6 +270,41 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     degrees[static_cast<std::size_t>(k)] = counted;
   }
   keepAtLeastTheRoutesPlaneVariance(degrees, &keyframes_);
+}
+
+void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
+                                          const RepeatOptions& options) {
+  // Planes that agree to within this [rad] are one surface seen from both keyframes, and a fix's
+  // error grows with the camera's displacement as at the neighbours; a mixture of road and
+  // facades at a corner (KITTI 07: 0.1-0.5 rad, the straights 0.02-0.04) gives fixes whose error
+  // between the keyframes the neighbours do not show, and keeps the plane's term (docs/math.md §3.10).
+  constexpr double kAgreeingPlanes = 0.1;
+  constexpr double kSameViewpointM = 0.1;  // a neighbour turned in place sees the same picture re-projected
+  const int n = size();
+  for (int k = 0; k < n; ++k) {
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    if (!reference.plane || !(reference.plane_normal_sigma_rad < kAgreeingPlanes)) continue;
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    int measured = 0;
+    for (const int j : {k - 1, k + 1}) {
+      if (j < 0 || j >= n) continue;
+      const PlanarPose taught =
+          mount.baseToCamera(reference.base_pose.inverse().compose(keyframes_[static_cast<std::size_t>(j)].base_pose));
+      const double d = std::hypot(taught.x, taught.z);
+      if (d < kSameViewpointM) continue;
+      const auto neighbour = loadKeyframeFeatures(route, static_cast<std::size_t>(j));
+      if (!neighbour) continue;  // (load() read it already: it cannot fail here but on a changed disk)
+      const auto matches = matchFeatures(reference.features, *neighbour, options.matching);
+      if (!matches || static_cast<int>(matches->size()) < options.min_inliers) continue;
+      const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, *neighbour, *matches));
+      const auto fix = estimatePlanarPose(points, camera, *reference.plane, options.pose);
+      if (!fix || static_cast<int>(fix->inliers.size()) < options.min_inliers) continue;
+      const Eigen::Vector3d e(fix->pose.x - taught.x, fix->pose.z - taught.z, wrapToPi(fix->pose.theta - taught.theta));
+      sum += e * e.transpose() / (d * d);
+      ++measured;
+    }
+    if (measured > 0) reference.neighbour_fix_error_per_m2 = Eigen::Matrix3d(sum / measured);
+  }
 }
 
 std::vector<Pose2D> KeyframeStore::poses() const {

@@ -73,16 +73,23 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
   std::vector<Eigen::Vector2d> seen;  // the keyframe pixels of `matches`
   for (const PointMatch& match : matches) seen.push_back(match.reference);
   const double stretch = matchStretchNoiseScale(H, seen, options.stretch_noise_gain);
-  PlanarPoseEstimatorOptions pose_options = options.repeat.pose;
-  pose_options.pixel_sigma_px *= reference.pixel_noise_scale * stretch;
-  // The plane's disagreement with its neighbours enters the prediction only where it enters the
-  // repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6, docs/route_audit.md).
+  // The plane's disagreement with its neighbours (or their fixes' error) enters the prediction
+  // only where it enters the repeat's covariance (plane_sigma_from_neighbours; docs/math.md §3.6,
+  // §3.10, docs/route_audit.md).
+  KeyframeReference as_repeated;
+  as_repeated.pixel_noise_scale = reference.pixel_noise_scale;
   if (options.repeat.plane_sigma_from_neighbours) {
-    pose_options.plane_normal_sigma_rad = std::max(pose_options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
-    pose_options.plane_distance_sigma = std::max(pose_options.plane_distance_sigma, reference.plane_distance_sigma);
+    as_repeated.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
+    as_repeated.plane_distance_sigma = reference.plane_distance_sigma;
+    as_repeated.neighbour_fix_error_per_m2 = reference.neighbour_fix_error_per_m2;
   }
-  const auto estimate = estimatePlanarPoseFromInliers(matches, camera, *reference.plane, pose_options);
+  PlanarPoseEstimatorOptions pose_options = fixPoseOptions(as_repeated, options.repeat.pose);
+  pose_options.pixel_sigma_px *= stretch;
+  auto estimate = estimatePlanarPoseFromInliers(matches, camera, *reference.plane, pose_options);
   if (!estimate) return estimate.status();
+  const Eigen::Matrix3d measured = neighbourFixCovariance(as_repeated, estimate->pose);
+  estimate->covariance += measured;
+  estimate->model_covariance += measured;
   const Eigen::Matrix3d J = mount.cameraToBaseJacobian(estimate->pose);
   const auto toBase = [&J](const Eigen::Matrix3d& camera_covariance) {
     const Eigen::Matrix3d base = J * camera_covariance * J.transpose();

@@ -32,6 +32,13 @@ struct KeyframeReference {
   // std of the normal's direction [rad] and of the distance [fraction]; 0 when not measured.
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
+  // Where its neighbours' planes agree with it (plane_normal_sigma_rad below 0.1 rad), the error
+  // of a fix against this keyframe measured instead: its neighbours' stored images relocalized
+  // against it as the repeat does, each error (fix − taught, camera frame (x, z, θ)) over the
+  // distance between the cameras, E[e eᵀ / d²] [1, 1, rad² per m²] (measureNeighbourFixes;
+  // docs/math.md §3.10). A fix at displacement d then carries d² times it in place of the plane's
+  // term (fixPoseOptions, neighbourFixCovariance). Absent: no neighbour measured, or they disagree.
+  std::optional<Eigen::Matrix3d> neighbour_fix_error_per_m2;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
   // This keyframe's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe): the RMS
   // match residual of the teach run's pairs that include it over the route's, within [0.5, 2]; 1
@@ -44,6 +51,18 @@ struct KeyframeReference {
 // 1 rad/m · their distance (driving a straight segment, the heading varies by a few degrees over
 // the keyframe spacing).
 bool turnedBetween(const Pose2D& a, const Pose2D& b);
+
+// The pose options of a Fast-HD fix against `reference` from the repeat's (docs/math.md §3.6, §3.9,
+// §3.10): the pixel σ times the keyframe's scale; the plane's σ the configured one or the
+// keyframe's own where larger, except where its neighbours' fixes measured the error
+// (neighbour_fix_error_per_m2), where the configured one alone. The repeat and the route audit
+// both take them from here.
+PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options);
+// What the neighbours' fixes add to the covariance of a fix at `camera_pose` (the current camera in
+// the reference camera's frame; camera frame (x, z, θ)): d² times neighbour_fix_error_per_m2, d
+// the camera's displacement; zero without it. Part of the fix's shared error: every fix against
+// the keyframe has it (docs/math.md §7.1).
+Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose);
 
 // Keyframe k's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe,
 // KeyframeReference::pixel_noise_scale; docs/math.md §3.9): the RMS match residual of the teach
@@ -84,6 +103,12 @@ class KeyframeStore {
   // neighbour agrees: at a corner of a building it sees the next wall (docs/math.md §3.6). A
   // neighbour whose plane is this one carried (a copy, within 1e-6) is passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount);
+  // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
+  // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away,
+  // matched to its plane features and localized with its plane as the repeat does (at least
+  // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10).
+  void measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
+                             const RepeatOptions& options);
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
   void triangulateLines(const PinholeCamera& camera, const CameraMount& mount, const LineLandmarkOptions& options);
 
