@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -412,4 +414,93 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidua
   const auto unmeasured = KeyframeStore::load(route, options);
   ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
   EXPECT_EQ(unmeasured->at(1).pixel_noise_scale, 1.0);
+}
+
+// The fix's error measured at the neighbours (docs/math.md §3.10): on the synthetic wall, whose
+// images are exact plane warps taught with exact poses, each keyframe's neighbours relocalize
+// against it to a few % of their distance (along the wall ~1.1 %: the teach run estimated the
+// planes from the images) and 0.005 rad per metre. A keyframe recorded
+// with its pose 5 cm off, as a teach run's odometry may be, disagrees with both its neighbours'
+// fixes by about that, over their distance: what a fix there will show. A plane its neighbours
+// contradict (turned by 0.8 rad: σ_N capped) keeps the plane's term and has no measurement;
+// without plane_sigma_from_neighbours nothing is measured.
+TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
+  const int n = static_cast<int>(taught_.keyframes.size());
+  ASSERT_GE(n, 5);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_sigma_from_neighbours = true;
+  const auto exact = KeyframeStore::load(taught_, options);
+  ASSERT_TRUE(exact.isOk()) << exact.status().toString();
+  for (int k = 0; k < n; ++k) {
+    ASSERT_TRUE(exact->at(k).neighbour_fix_error_per_m2) << k;
+    const Eigen::Matrix3d& b = *exact->at(k).neighbour_fix_error_per_m2;
+    EXPECT_LT(std::sqrt(b(0, 0)), 0.03) << k;
+    EXPECT_LT(std::sqrt(b(1, 1)), 0.03) << k;
+    EXPECT_LT(std::sqrt(b(2, 2)), 0.005) << k;
+    EXPECT_GE(b.eigenvalues().real().minCoeff(), -1e-15) << k;
+  }
+
+  Route moved = taught_;
+  moved.keyframes[2].pose.x += 0.03;
+  moved.keyframes[2].pose.y += 0.04;
+  const auto off = KeyframeStore::load(moved, options);
+  ASSERT_TRUE(off.isOk()) << off.status().toString();
+  ASSERT_TRUE(off->at(2).neighbour_fix_error_per_m2);
+  const Eigen::Matrix3d& b = *off->at(2).neighbour_fix_error_per_m2;
+  double expected = 0.0;  // the mean of (0.05 m / d)² over the two neighbours
+  for (const int j : {1, 3}) {
+    const Pose2D& a = moved.keyframes[2].pose;
+    const Pose2D& c = moved.keyframes[static_cast<std::size_t>(j)].pose;
+    expected += 0.5 * std::pow(0.05 / std::hypot(c.x - a.x, c.y - a.y), 2);
+  }
+  EXPECT_NEAR(b(0, 0) + b(1, 1), expected, 0.3 * expected);
+  EXPECT_GT(b(0, 0) + b(1, 1), 100.0 * (exact->at(2).neighbour_fix_error_per_m2->topLeftCorner<2, 2>().trace()));
+
+  Route contradicted = taught_;
+  turnAboutTheVertical(&*contradicted.keyframes[2].plane, 0.8);
+  options.plane_feature_tolerance_px = 0.0;  // the turned plane's features all (the planes alone)
+  const auto corner = KeyframeStore::load(contradicted, options);
+  ASSERT_TRUE(corner.isOk()) << corner.status().toString();
+  EXPECT_GT(corner->at(2).plane_normal_sigma_rad, 0.4);
+  EXPECT_FALSE(corner->at(2).neighbour_fix_error_per_m2);
+  const PlanarPoseEstimatorOptions plane_term = fixPoseOptions(corner->at(2), options.pose);
+  EXPECT_EQ(plane_term.plane_normal_sigma_rad, corner->at(2).plane_normal_sigma_rad);
+
+  options.plane_sigma_from_neighbours = false;
+  const auto unmeasured = KeyframeStore::load(taught_, options);
+  ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
+  for (int k = 0; k < n; ++k) EXPECT_FALSE(unmeasured->at(k).neighbour_fix_error_per_m2) << k;
+}
+
+// fixPoseOptions and neighbourFixCovariance (docs/math.md §3.10): a keyframe with its neighbours'
+// fixes measured takes no plane term beyond the configured one and carries d² times the
+// measurement, d the camera's displacement; one without takes its plane's σ where larger than the
+// configured one; both scale the pixel σ by the keyframe's.
+TEST(KeyframeStore, AMeasuredFixErrorReplacesThePlanesTermAndGrowsWithTheDisplacement) {
+  PlanarPoseEstimatorOptions configured;
+  configured.pixel_sigma_px = 0.3;
+  configured.plane_normal_sigma_rad = 0.01;
+  configured.plane_distance_sigma = 0.0;
+  KeyframeReference planar;
+  planar.plane_normal_sigma_rad = 0.05;
+  planar.plane_distance_sigma = 0.03;
+  planar.pixel_noise_scale = 1.5;
+  const PlanarPoseEstimatorOptions with_plane = fixPoseOptions(planar, configured);
+  EXPECT_EQ(with_plane.plane_normal_sigma_rad, 0.05);
+  EXPECT_EQ(with_plane.plane_distance_sigma, 0.03);
+  EXPECT_NEAR(with_plane.pixel_sigma_px, 0.45, 1e-12);
+  EXPECT_EQ(neighbourFixCovariance(planar, PlanarPose(0.3, 0.4, 0.1)), Eigen::Matrix3d::Zero());
+
+  KeyframeReference measured = planar;
+  Eigen::Matrix3d per_m2;
+  per_m2 << 1e-4, 2e-5, 0.0, 2e-5, 4e-4, 1e-6, 0.0, 1e-6, 1e-6;
+  measured.neighbour_fix_error_per_m2 = per_m2;
+  const PlanarPoseEstimatorOptions without_plane = fixPoseOptions(measured, configured);
+  EXPECT_EQ(without_plane.plane_normal_sigma_rad, 0.01);
+  EXPECT_EQ(without_plane.plane_distance_sigma, 0.0);
+  EXPECT_NEAR(without_plane.pixel_sigma_px, 0.45, 1e-12);
+  const Eigen::Matrix3d at_half_metre = neighbourFixCovariance(measured, PlanarPose(0.3, 0.4, 0.1));
+  EXPECT_TRUE(at_half_metre.isApprox(0.25 * per_m2, 1e-12));
+  EXPECT_EQ(neighbourFixCovariance(measured, PlanarPose(0.0, 0.0, 0.2)), Eigen::Matrix3d::Zero());
 }
