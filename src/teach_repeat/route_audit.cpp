@@ -284,6 +284,9 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
       a.plane_distance_m = reference.plane->distance;
       a.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
       a.plane_distance_sigma = reference.plane_distance_sigma;
+      if (reference.neighbour_fix_error_per_m2) {
+        a.neighbour_fix_error_per_m = Eigen::Vector3d(reference.neighbour_fix_error_per_m2->diagonal().cwiseSqrt());
+      }
       const auto predicted = predictFix(reference, camera, mount, options);
       if (!predicted) {
         a.prediction_problem = predicted.status().toString();

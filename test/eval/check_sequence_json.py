@@ -3,7 +3,7 @@
 
   check_sequence_json.py SEQUENCE.json [--min-localized F] [--max-median-position M]
                          [--max-median-heading DEG] [--min-segment-nees-mean N] [--max-segment-nees-mean N]
-                         [--min-segment-frames N] [--max-beyond-95 F] [--plots]
+                         [--min-segment-frames N] [--max-beyond-95 F] [--max-segment-beyond-95 F] [--plots]
 Exit 1 naming the figure that misses its floor."""
 import argparse
 import json
@@ -28,6 +28,8 @@ def main():
     parser.add_argument("--min-segment-frames", type=int, default=1)
     # The share of poses beyond their 95 % bound over the run.
     parser.add_argument("--max-beyond-95", type=float, default=1.0)
+    # The same per segment of at least --min-segment-frames localized frames (issue 49's band).
+    parser.add_argument("--max-segment-beyond-95", type=float, default=1.0)
     parser.add_argument("--plots", action="store_true")
     args = parser.parse_args()
     with open(args.json) as f:
@@ -51,6 +53,10 @@ def main():
             problems.append("segment '%s': NEES mean %s > %.1f" % (segment.get("name"), nees, args.max_segment_nees_mean))
         elif nees < args.min_segment_nees_mean:
             problems.append("segment '%s': NEES mean %s < %.1f" % (segment.get("name"), nees, args.min_segment_nees_mean))
+        segment_beyond = segment.get("nees_fraction_beyond_95")
+        if args.max_segment_beyond_95 < 1.0 and (segment_beyond is None or segment_beyond > args.max_segment_beyond_95):
+            problems.append("segment '%s': %s of the poses beyond their 95 %% bound > %.2f" %
+                            (segment.get("name"), segment_beyond, args.max_segment_beyond_95))
     beyond = summary.get("nees_fraction_beyond_95")
     if args.max_beyond_95 < 1.0 and (beyond is None or beyond > args.max_beyond_95):
         problems.append("%s of the poses beyond their 95 %% bound > %.2f" % (beyond, args.max_beyond_95))

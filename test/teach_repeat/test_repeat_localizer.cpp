@@ -425,8 +425,10 @@ TEST_F(RepeatLocalizerTest, ARefusedPoseLetsTheNeighbourTry) {
 }
 
 // plane_sigma_from_neighbours: the synthetic route's keyframes all see the same wall, so each
-// plane agrees with its neighbours' carried into its frame and the covariance barely grows; a
-// route whose keyframe 1 plane is turned by 0.2 rad says so in that keyframe's covariance.
+// plane agrees with its neighbours' carried into its frame, and the covariance grows only by what
+// the neighbours' fixes show (docs/math.md §3.10: the teach run's planes about 1 % off, 1.8 times
+// the pixels' alone here); a route whose keyframe 1 plane is turned by 0.2 rad says so in that
+// keyframe's covariance (the plane's term: its neighbours disagree).
 TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const PlanarPose camera_pose(0.085, 0.31, 0.047);
   RepeatOptions plain;
@@ -444,7 +446,7 @@ TEST_F(RepeatLocalizerTest, PlaneUncertaintyFromTheNeighbours) {
   const auto b = consistent->localize(wall_->imageAt(camera_pose));
   ASSERT_TRUE(a.isOk() && b.isOk());
   EXPECT_NEAR(b->base_pose.x, a->base_pose.x, 1e-9);  // the pose does not change
-  EXPECT_LT(b->covariance.trace(), 1.5 * a->covariance.trace());
+  EXPECT_LT(b->covariance.trace(), 2.5 * a->covariance.trace());
 
   Route tilted = route();
   ScenePlane& plane = *tilted.keyframes[1].plane;

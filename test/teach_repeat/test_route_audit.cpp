@@ -81,6 +81,7 @@ TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
   RouteAuditOptions options;
   options.aliasing = false;
   options.repeat.pose.refine = false;  // the closed form's covariance is linear in the pixel sigma
+  options.repeat.plane_sigma_from_neighbours = false;  // and nothing else in it (docs/math.md §3.10)
   options.repeat.match_residual_gain = 0.0;
   const auto once = auditRoute(route(), options);
   options.repeat.pose.pixel_sigma_px *= 2.0;
@@ -105,6 +106,7 @@ TEST_F(RouteAuditTest, ThePredictedSigmaFollowsTheRepeatsPixelNoise) {
 TEST_F(RouteAuditTest, AKeyframeWithNoisierMatchesIsPredictedNoisier) {
   RouteAuditOptions options;
   options.aliasing = false;
+  options.repeat.plane_sigma_from_neighbours = false;  // the pixel noise alone in the prediction
   const auto plain = auditRoute(route(), options);
   ASSERT_TRUE(plain.isOk()) << plain.status().toString();
   for (const KeyframeAudit& a : plain->keyframes) {
@@ -319,6 +321,8 @@ TEST_F(RouteAuditTest, TheFixToFixPartIsTheCurrentImagesNoiseAndTheKeyframesNotM
 TEST_F(RouteAuditTest, TheSharedPartDoesNotDependOnThePartMatched) {
   RouteAuditOptions options;
   options.aliasing = false;
+  // The pixel noise alone: the thinned neighbour's fix would change keyframe 0's measured fix error.
+  options.repeat.plane_sigma_from_neighbours = false;
   options.repeat.plane_feature_tolerance_px = 0.0;  // keyframe 0's features all, whatever its neighbour
   const auto plain = auditRoute(route(), options);
   ASSERT_TRUE(plain.isOk()) << plain.status().toString();
@@ -458,5 +462,37 @@ TEST_F(RouteAuditTest, TheProbesStretchScalesThePixelNoise) {
     const auto refused = auditRoute(route(), options);
     ASSERT_FALSE(refused.isOk());
     EXPECT_NE(refused.status().message().find("stretch_noise_gain"), std::string::npos);
+  }
+}
+
+// The prediction carries what the repeat's covariance carries (docs/math.md §3.10): on the wall,
+// whose keyframes' planes agree, each keyframe's neighbours' fixes are measured and reported, and
+// the fix beside it (0.3 m off: d² = 0.09) is predicted with 0.09 times that measurement in place of
+// the plane's term; with plane_sigma_from_neighbours off it is still measured and reported (as the
+// planes' σ are) but not in the prediction.
+TEST_F(RouteAuditTest, TheNeighboursFixErrorEntersThePrediction) {
+  RouteAuditOptions options;
+  options.aliasing = false;
+  options.repeat.pose.common_shift_sigma_px = 0.0;
+  const auto measured = auditRoute(route(), options);
+  options.repeat.plane_sigma_from_neighbours = false;
+  const auto plain = auditRoute(route(), options);
+  ASSERT_TRUE(measured.isOk() && plain.isOk());
+  for (std::size_t k = 0; k < measured->keyframes.size(); ++k) {
+    const KeyframeAudit& a = measured->keyframes[k];
+    const KeyframeAudit& b = plain->keyframes[k];
+    ASSERT_TRUE(a.neighbour_fix_error_per_m) << k;
+    EXPECT_TRUE(b.neighbour_fix_error_per_m) << k;
+    ASSERT_TRUE(a.predicted_covariance && b.predicted_covariance) << k;
+    const Eigen::Matrix3d added = *a.predicted_covariance - *b.predicted_covariance;
+    const Eigen::Vector3d& per_m = *a.neighbour_fix_error_per_m;
+    // Position: the mount turns the camera's (x, z) into the base's (x, y); the trace stays.
+    const double expected = 0.09 * (per_m.x() * per_m.x() + per_m.y() * per_m.y());
+    const double position_added = added.topLeftCorner<2, 2>().trace();
+    EXPECT_NEAR(position_added, expected, 0.05 * expected) << k;
+    EXPECT_GE(added.eigenvalues().real().minCoeff(), -1e-12) << k;
+    // The same in every fix against the keyframe: the shared part, not the fix-to-fix one.
+    EXPECT_LT((*a.predicted_fix_to_fix_covariance - *b.predicted_fix_to_fix_covariance).norm(),
+              1e-9 * b.predicted_fix_to_fix_covariance->norm()) << k;
   }
 }

@@ -65,6 +65,9 @@ struct KeyframeAudit {
   double plane_distance_m = 0.0;
   double plane_normal_sigma_rad = 0.0;  // from the neighbours' planes (0: not measured)
   double plane_distance_sigma = 0.0;    // [fraction]
+  // Where its neighbours' planes agree with it: the RMS error per metre of their images relocalized
+  // against it (camera frame: x, z, heading [rad/m]; KeyframeReference::neighbour_fix_error_per_m2).
+  std::optional<Eigen::Vector3d> neighbour_fix_error_per_m;
   int plane_features = 0;               // the features the repeat matches (on the plane)
   // (x forward, y left, yaw) of base_link for a fix probe_offset_m to the right; absent with the
   // reason in prediction_problem.

@@ -47,6 +47,10 @@ nlohmann::json toJson(const KeyframeAudit& a) {
     k["plane_distance_m"] = a.plane_distance_m;
     k["plane_normal_sigma_rad"] = a.plane_normal_sigma_rad;
     k["plane_distance_sigma"] = a.plane_distance_sigma;
+    if (a.neighbour_fix_error_per_m) {
+      const Eigen::Vector3d& e = *a.neighbour_fix_error_per_m;
+      k["neighbour_fix_error_per_m"] = {{"x", e.x()}, {"z", e.y()}, {"heading", e.z()}};
+    }
   }
   if (a.predicted_covariance) {
     const Eigen::Matrix3d& c = *a.predicted_covariance;
