@@ -129,28 +129,8 @@ class FastHdEstimator final : public PointEstimator {
     const auto pose = estimatePlanarPose(matches, context_.camera, *reference.plane, fixPoseOptions(reference, options.pose));
     if (!pose) return pose.status();
     *inliers = pose->inliers;
-    // The pose must explain the matches through the keyframe's plane. Any homography gives a
-    // Fast-HD pose, so a view dominated by another wall (a corner) gives a wrong pose with a small
-    // DLT residual; the plane-induced homography of that pose does not fit it.
-    // The model includes the refinement's nuisances: the current camera's tilt and its height
-    // offset (a camera 3 cm lower moves a wall 2 m away by f·0.03/2 ≈ 8 px, docs/math.md §1.10).
-    const Eigen::Matrix3d H_model = context_.camera.K() * pose->tilt * context_.camera.Kinverse() *
-                                    planeInducedHomography(context_.camera, pose->pose, *reference.plane,
-                                                           pose->height_offset);
-    double sum = 0.0;
-    for (const int i : pose->inliers) {
-      const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);
-      sum += e * e;
-    }
-    const double rms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, pose->inliers.size())));
-    if (!(rms <= options.max_plane_residual_px)) {
-      return Status(StatusCode::kNoConsensus, "the matches do not fit the keyframe's plane (RMS " + std::to_string(rms) +
-                                                  " px > max_plane_residual " +
-                                                  std::to_string(options.max_plane_residual_px) +
-                                                  " px): another wall in view?");
-    }
-    const Status same_wall = checkPlaneNormal(pose->H, *reference.plane, matches, pose->inliers);
-    if (!same_wall.isOk()) return same_wall;
+    const Status on_plane = checkPoseOnPlane(*pose, *reference.plane, matches, context_.camera, options);
+    if (!on_plane.isOk()) return on_plane;
     const Eigen::Matrix3d J = mount_.cameraToBaseJacobian(pose->pose);
     const Eigen::Matrix3d measured = neighbourFixCovariance(reference, pose->pose);
     estimate->covariance = rotateCovariance(J * (pose->covariance + measured) * J.transpose(), reference.base_pose.yaw);
@@ -158,37 +138,6 @@ class FastHdEstimator final : public PointEstimator {
         rotateCovariance(J * (pose->model_covariance + measured) * J.transpose(), reference.base_pose.yaw);
     estimate->covariance_known = true;
     return pose->pose;
-  }
-
-  // Every vertical plane's homography under planar motion has the same form, so the residual
-  // cannot tell the keyframe's wall from a side wall. The plane normal can: with enough parallax
-  // the classic decomposition's normals (positive depth) must include one near the keyframe
-  // plane's normal (docs/math.md §1.8: the other solution is the spurious one).
-  // filterByPositiveDepth: the solutions with at least this fraction of the inliers in front.
-  static constexpr double kMinFractionInFront = 0.9;
-
-  Status checkPlaneNormal(const Eigen::Matrix3d& H, const ScenePlane& plane, const PointMatches& matches,
-                          const std::vector<int>& inliers) const {
-    const auto solutions = decomposeHomographyClassic(H, context_.camera);
-    if (!solutions) return Status::ok();  // nothing to check against; the residual test stands
-    std::vector<Eigen::Vector2d> pixels;
-    pixels.reserve(inliers.size());
-    for (const int i : inliers) pixels.push_back(matches[static_cast<std::size_t>(i)].reference);
-    const auto visible = filterByPositiveDepth(*solutions, context_.camera, pixels, kMinFractionInFront);
-    if (visible.empty()) return Status::ok();
-    double parallax = 0.0, best_cos = -1.0;
-    for (const auto& d : visible) {
-      parallax = std::max(parallax, d.translation_over_distance.norm());
-      best_cos = std::max(best_cos, d.normal.dot(plane.normal));
-    }
-    if (parallax < context_.options.min_normal_check_parallax) return Status::ok();  // not observable
-    const double angle = std::acos(std::clamp(best_cos, -1.0, 1.0));
-    if (angle > context_.options.max_normal_angle) {
-      return Status(StatusCode::kNoConsensus, "the dominant plane in view is not the keyframe's (normal " +
-                                                  std::to_string(angle * 180.0 / M_PI) +
-                                                  " deg away): another wall in view?");
-    }
-    return Status::ok();
   }
 };
 
@@ -307,6 +256,68 @@ std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext&
     case RepeatMode::kHybrid: break;
   }
   return nullptr;
+}
+
+Status checkPoseOnPlane(const PlanarPoseEstimate& pose, const ScenePlane& plane, const PointMatches& matches,
+                        const PinholeCamera& camera, const RepeatOptions& options) {
+  // The pose must explain the matches through the keyframe's plane. Any homography gives a
+  // Fast-HD pose, so a view dominated by another wall (a corner) gives a wrong pose with a small
+  // DLT residual; the plane-induced homography of that pose does not fit it.
+  // The model includes the refinement's nuisances: the current camera's tilt and its height
+  // offset (a camera 3 cm lower moves a wall 2 m away by f·0.03/2 ≈ 8 px, docs/math.md §1.10).
+  const Eigen::Matrix3d H_model =
+      camera.K() * pose.tilt * camera.Kinverse() * planeInducedHomography(camera, pose.pose, plane, pose.height_offset);
+  double sum = 0.0;
+  for (const int i : pose.inliers) {
+    const double e = transferError(H_model, matches[static_cast<std::size_t>(i)]);
+    sum += e * e;
+  }
+  const double rms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, pose.inliers.size())));
+  if (!(rms <= options.max_plane_residual_px)) {
+    return Status(StatusCode::kNoConsensus, "the matches do not fit the keyframe's plane (RMS " + std::to_string(rms) +
+                                                " px > max_plane_residual " + std::to_string(options.max_plane_residual_px) +
+                                                " px): another wall in view?");
+  }
+  // Every vertical plane's homography under planar motion has the same form, so the residual
+  // cannot tell the keyframe's wall from a side wall. The plane normal can: with enough parallax
+  // the classic decomposition's normals (positive depth, at least 90 % of the inliers in front)
+  // must include one near the keyframe plane's normal (docs/math.md §1.8: the other solution is
+  // the spurious one).
+  constexpr double kMinFractionInFront = 0.9;
+  const auto solutions = decomposeHomographyClassic(pose.H, camera);
+  if (!solutions) return Status::ok();  // nothing to check against; the residual test stands
+  std::vector<Eigen::Vector2d> pixels;
+  pixels.reserve(pose.inliers.size());
+  for (const int i : pose.inliers) pixels.push_back(matches[static_cast<std::size_t>(i)].reference);
+  const auto visible = filterByPositiveDepth(*solutions, camera, pixels, kMinFractionInFront);
+  if (visible.empty()) return Status::ok();
+  double parallax = 0.0, best_cos = -1.0;
+  for (const auto& d : visible) {
+    parallax = std::max(parallax, d.translation_over_distance.norm());
+    best_cos = std::max(best_cos, d.normal.dot(plane.normal));
+  }
+  if (parallax < options.min_normal_check_parallax) return Status::ok();  // not observable
+  const double angle = std::acos(std::clamp(best_cos, -1.0, 1.0));
+  if (angle > options.max_normal_angle) {
+    return Status(StatusCode::kNoConsensus, "the dominant plane in view is not the keyframe's (normal " +
+                                                std::to_string(angle * 180.0 / M_PI) + " deg away): another wall in view?");
+  }
+  return Status::ok();
+}
+
+Expected<PlanarPoseEstimate> localizeAgainstPlane(const KeyframeReference& reference, const ImageFeatures& current,
+                                                  const PinholeCamera& camera, const RepeatOptions& options,
+                                                  bool check_on_plane) {
+  if (!reference.plane) return Status(StatusCode::kInvalidInput, "the reference has no plane");
+  const auto matches = matchFeatures(reference.features, current, options.matching);
+  if (!matches) return matches.status();
+  if (matches->size() < 4) return Status(StatusCode::kNoConsensus, "fewer than 4 matches");
+  const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
+  auto pose = estimatePlanarPose(points, camera, *reference.plane, options.pose);
+  if (!pose || !check_on_plane) return pose;
+  const Status on_plane = checkPoseOnPlane(*pose, *reference.plane, points, camera, options);
+  if (!on_plane.isOk()) return on_plane;
+  return pose;
 }
 
 }  // namespace homography_teach_repeat

@@ -15,6 +15,7 @@
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_estimators.h"
 
 namespace homography_teach_repeat {
 namespace {
@@ -291,13 +292,16 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
       const PlanarPose taught =
           mount.baseToCamera(reference.base_pose.inverse().compose(keyframes_[static_cast<std::size_t>(j)].base_pose));
       const double d = std::hypot(taught.x, taught.z);
-      if (d < kSameViewpointM) continue;
+      // Reached by turning (a turn in place, turnedBetween), the views differ by the rotation more
+      // than by the displacement, and the error per metre of it says nothing (the simulator's l_hall:
+      // 1.0 per metre from a neighbour 6 cm and 22° away, where the fixes along its walls are 0.1 %).
+      if (d < kSameViewpointM || turnedBetween(reference.base_pose, keyframes_[static_cast<std::size_t>(j)].base_pose)) {
+        continue;
+      }
       const auto neighbour = loadKeyframeFeatures(route, static_cast<std::size_t>(j));
       if (!neighbour) continue;  // (load() read it already: it cannot fail here but on a changed disk)
-      const auto matches = matchFeatures(reference.features, *neighbour, options.matching);
-      if (!matches || static_cast<int>(matches->size()) < options.min_inliers) continue;
-      const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, *neighbour, *matches));
-      const auto fix = estimatePlanarPose(points, camera, *reference.plane, options.pose);
+      // A fix the repeat would refuse (another wall in view) is not one whose error it must carry.
+      const auto fix = localizeAgainstPlane(reference, *neighbour, camera, options, /*check_on_plane=*/true);
       if (!fix || static_cast<int>(fix->inliers.size()) < options.min_inliers) continue;
       const Eigen::Vector3d e(fix->pose.x - taught.x, fix->pose.z - taught.z, wrapToPi(fix->pose.theta - taught.theta));
       sum += e * e.transpose() / (d * d);

@@ -12,6 +12,7 @@
 #include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_estimators.h"
 #include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 
 namespace homography_teach_repeat {
@@ -112,17 +113,18 @@ struct Relocalization {
 Relocalization relocalize(const KeyframeReference& reference, const ImageFeatures& current, const PinholeCamera& camera,
                           const CameraMount& mount, const RepeatOptions& repeat) {
   Relocalization result;
-  const auto matches = matchFeatures(reference.features, current, repeat.matching);
-  if (!matches || matches->size() < 4) return result;
-  const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
   if (reference.plane) {
-    const auto pose = estimatePlanarPose(points, camera, *reference.plane, repeat.pose);
+    // What matches, as the audit has always counted it (the repeat's checks left to the repeat).
+    const auto pose = localizeAgainstPlane(reference, current, camera, repeat, /*check_on_plane=*/false);
     if (pose) {
       result.inliers = static_cast<int>(pose->inliers.size());
       result.relative = mount.cameraToBase(pose->pose);
     }
     return result;
   }
+  const auto matches = matchFeatures(reference.features, current, repeat.matching);
+  if (!matches || matches->size() < 4) return result;
+  const PointMatches points = undistortMatches(camera, toPointMatches(reference.features, current, *matches));
   const auto homography = estimateHomographyRobust(points, repeat.pose.robust);
   if (homography) result.inliers = static_cast<int>(homography->inliers.size());
   return result;

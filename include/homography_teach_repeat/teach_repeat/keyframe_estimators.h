@@ -72,4 +72,23 @@ class KeyframeEstimator {
 
 std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext& context);
 
+// The fast_hd mode's checks of a pose against the reference's plane, which refuse it
+// (kNoConsensus, naming which): its inliers' RMS residual about the plane-induced homography of
+// the pose (with its tilt and height offset) above options.max_plane_residual_px, or, with enough
+// parallax to tell, the classic decomposition's normals none within options.max_normal_angle of
+// the plane's (the dominant plane in view is another wall).
+Status checkPoseOnPlane(const PlanarPoseEstimate& pose, const ScenePlane& plane, const PointMatches& matches,
+                        const PinholeCamera& camera, const RepeatOptions& options);
+
+// `current` (another image's features) localized against `reference`'s plane as the fast_hd mode
+// does: matched (RepeatOptions::matching), undistorted, Fast-HD with the reference's plane and
+// RepeatOptions::pose (estimatePlanarPose; the current camera in the reference camera's frame),
+// and with `check_on_plane` checked as the mode checks it (checkPoseOnPlane). kNoConsensus with
+// fewer than 4 matches or a refused pose, kInvalidInput without a plane; the estimator's error
+// otherwise. For measurements on the teach run's own images (the neighbours' fixes, KeyframeStore,
+// checked; the route audit's matches, unchecked).
+Expected<PlanarPoseEstimate> localizeAgainstPlane(const KeyframeReference& reference, const ImageFeatures& current,
+                                                  const PinholeCamera& camera, const RepeatOptions& options,
+                                                  bool check_on_plane);
+
 }  // namespace homography_teach_repeat
