@@ -421,7 +421,8 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesPixelNoiseIsScaledByItsOwnPairsResidua
 // against it to a few % of their distance (along the wall ~1.1 %: the teach run estimated the
 // planes from the images) and 0.005 rad per metre. A keyframe recorded
 // with its pose 5 cm off, as a teach run's odometry may be, disagrees with both its neighbours'
-// fixes by about that, over their distance: what a fix there will show. A plane its neighbours
+// fixes by about that, over their distance: what a fix there will show. A neighbour reached by
+// turning says nothing per metre. A plane its neighbours
 // contradict (turned by 0.8 rad: σ_N capped) keeps the plane's term and has no measurement;
 // without plane_sigma_from_neighbours nothing is measured.
 TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
@@ -456,6 +457,18 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
   }
   EXPECT_NEAR(b(0, 0) + b(1, 1), expected, 0.3 * expected);
   EXPECT_GT(b(0, 0) + b(1, 1), 100.0 * (exact->at(2).neighbour_fix_error_per_m2->topLeftCorner<2, 2>().trace()));
+
+  // A neighbour reached by turning (keyframe 3 recorded 1 rad turned: turnedBetween) is not
+  // measured, though its fix is that far off the taught pose: keyframe 2 keeps keyframe 1's
+  // measurement (keyframe 3's plane, carried 1 rad off, is another surface to it), keyframe 3 has
+  // none.
+  Route turned = taught_;
+  turned.keyframes[3].pose.yaw += 1.0;
+  const auto turn = KeyframeStore::load(turned, options);
+  ASSERT_TRUE(turn.isOk()) << turn.status().toString();
+  ASSERT_TRUE(turn->at(2).neighbour_fix_error_per_m2);
+  EXPECT_LT(std::sqrt(turn->at(2).neighbour_fix_error_per_m2->topLeftCorner<2, 2>().trace()), 0.03);
+  EXPECT_FALSE(turn->at(3).neighbour_fix_error_per_m2);
 
   Route contradicted = taught_;
   turnAboutTheVertical(&*contradicted.keyframes[2].plane, 0.8);

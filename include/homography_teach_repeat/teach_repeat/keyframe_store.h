@@ -104,8 +104,9 @@ class KeyframeStore {
   // neighbour whose plane is this one carried (a copy, within 1e-6) is passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount);
   // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
-  // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away,
-  // matched to its plane features and localized with its plane as the repeat does (at least
+  // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
+  // and that were not reached by turning (turnedBetween), matched to its plane features and
+  // localized with its plane as the fast_hd mode does (localizeAgainstPlane, checked; at least
   // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10).
   void measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
                              const RepeatOptions& options);
