@@ -468,6 +468,7 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
   ASSERT_TRUE(turn.isOk()) << turn.status().toString();
   ASSERT_TRUE(turn->at(2).neighbour_fix_error_per_m2);
   EXPECT_LT(std::sqrt(turn->at(2).neighbour_fix_error_per_m2->topLeftCorner<2, 2>().trace()), 0.03);
+  EXPECT_LT(std::sqrt((*turn->at(2).neighbour_fix_error_per_m2)(2, 2)), 0.005);  // 1 rad over d, counted
   EXPECT_FALSE(turn->at(3).neighbour_fix_error_per_m2);
 
   Route contradicted = taught_;
