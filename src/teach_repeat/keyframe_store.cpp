@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -280,9 +281,21 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
   // facades at a corner (KITTI 07: 0.1-0.5 rad, the straights 0.02-0.04) gives fixes whose error
   // between the keyframes the neighbours do not show, and keeps the plane's term (docs/math.md §3.10).
   constexpr double kAgreeingPlanes = 0.1;
-  constexpr double kSameViewpointM = 0.1;  // a neighbour turned in place sees the same picture re-projected
   const int n = size();
+  // Each keyframe's stored features serve both its neighbours: read once, dropped once both used
+  // (the store holds only the plane features; reading all at once would hold every image's).
+  std::map<int, std::optional<ImageFeatures>> stored;
+  const auto storedFeatures = [&](int j) -> const std::optional<ImageFeatures>& {
+    auto found = stored.find(j);
+    if (found == stored.end()) {
+      auto loaded = loadKeyframeFeatures(route, static_cast<std::size_t>(j));
+      // (load() read it already: it cannot fail here but on a changed disk)
+      found = stored.emplace(j, loaded ? std::optional<ImageFeatures>(std::move(*loaded)) : std::nullopt).first;
+    }
+    return found->second;
+  };
   for (int k = 0; k < n; ++k) {
+    stored.erase(stored.begin(), stored.lower_bound(k - 1));
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane || !(reference.plane_normal_sigma_rad < kAgreeingPlanes)) continue;
     Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
@@ -298,8 +311,8 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
       if (d < kSameViewpointM || turnedBetween(reference.base_pose, keyframes_[static_cast<std::size_t>(j)].base_pose)) {
         continue;
       }
-      const auto neighbour = loadKeyframeFeatures(route, static_cast<std::size_t>(j));
-      if (!neighbour) continue;  // (load() read it already: it cannot fail here but on a changed disk)
+      const std::optional<ImageFeatures>& neighbour = storedFeatures(j);
+      if (!neighbour) continue;
       // A fix the repeat would refuse (another wall in view) is not one whose error it must carry.
       const auto fix = localizeAgainstPlane(reference, *neighbour, camera, options, /*check_on_plane=*/true);
       if (!fix || static_cast<int>(fix->inliers.size()) < options.min_inliers) continue;

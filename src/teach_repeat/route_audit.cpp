@@ -20,11 +20,6 @@ namespace {
 
 constexpr double kDegreesPerRadian = 180.0 / M_PI;
 
-// A neighbour whose camera stood closer than this to the keyframe's saw the same picture
-// re-projected (a turn in place moves the camera by the mount's offset times the turn: 7 cm for
-// 0.2 m and 20°), not a view from elsewhere [m].
-constexpr double kSameViewpointM = 0.1;
-
 std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
   char text[240];
   std::snprintf(text, sizeof(text), pattern, a, b, c, d);
@@ -200,13 +195,14 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
   } else {
     audit.notes.push_back("not every keyframe has a plane: features are not restricted to the planes and "
                           "the planes' own uncertainty is not measured");
+    const std::optional<double> route_residual = routeMatchResidual(route);  // once: a median over the route
     for (int k = 0; k < n; ++k) {
       KeyframeReference reference;
       reference.features = stored[static_cast<std::size_t>(k)];
       reference.plane = route.keyframes[static_cast<std::size_t>(k)].plane;
       reference.base_pose = route.keyframes[static_cast<std::size_t>(k)].pose;
       if (options.repeat.pixel_noise_per_keyframe) {
-        reference.pixel_noise_scale = keyframePixelNoiseScale(route, static_cast<std::size_t>(k), routeMatchResidual(route));
+        reference.pixel_noise_scale = keyframePixelNoiseScale(route, static_cast<std::size_t>(k), route_residual);
       }
       references.push_back(std::move(reference));
     }

@@ -52,6 +52,11 @@ struct KeyframeReference {
 // the keyframe spacing).
 bool turnedBetween(const Pose2D& a, const Pose2D& b);
 
+// A neighbouring keyframe whose camera stood closer than this to the keyframe's saw the same picture
+// re-projected (a turn in place moves the camera by the mount's offset times the turn: 7 cm for
+// 0.2 m and 20°), not a view from elsewhere [m]. The neighbours' fixes and the route audit skip it.
+constexpr double kSameViewpointM = 0.1;
+
 // The pose options of a Fast-HD fix against `reference` from the repeat's (docs/math.md §3.6, §3.9,
 // §3.10): the pixel σ times the keyframe's scale; the plane's σ the configured one or the
 // keyframe's own where larger, except where its neighbours' fixes measured the error
