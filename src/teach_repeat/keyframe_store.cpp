@@ -238,30 +238,39 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     return d;
   };
   std::vector<int> degrees(static_cast<std::size_t>(n), 0);
+  std::vector<bool> compared_with_nothing(static_cast<std::size_t>(n), false);
   for (int k = 0; k < n; ++k) {
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
     if (!reference.plane) continue;
-    std::vector<Disagreement> neighbours;
+    std::vector<std::pair<int, Disagreement>> neighbours;  // (keyframe, its plane against this one)
     for (const int step : {-1, 1}) {
       // The nearest keyframe on this side whose plane is an estimate of its own: a run of copies
       // is one estimate, compared with the keyframes beyond it.
       for (int j = k + step; j >= 0 && j < n && keyframes_[static_cast<std::size_t>(j)].plane; j += step) {
         const Disagreement d = disagreement(reference, keyframes_[static_cast<std::size_t>(j)]);
         if (d.angle < kCopy && d.distance < kCopy) continue;
-        neighbours.push_back(d);
+        neighbours.emplace_back(j, d);
         break;
       }
     }
     if (neighbours.empty()) continue;
+    const auto other = [](const std::pair<int, Disagreement>& neighbour) { return neighbour.second.otherSurface(); };
+    const bool one_agrees = !std::all_of(neighbours.begin(), neighbours.end(), other);
+    // Every neighbour sees another surface: where the two see one surface between them, this plane
+    // is the odd one and the disagreement is its own; where they differ too (three walls of a
+    // corridor, a route's end), it was compared with nothing (below).
+    if (!one_agrees && (neighbours.size() < 2 ||
+                        disagreement(keyframes_[static_cast<std::size_t>(neighbours[0].first)],
+                                     keyframes_[static_cast<std::size_t>(neighbours[1].first)])
+                            .otherSurface())) {
+      compared_with_nothing[static_cast<std::size_t>(k)] = true;
+      continue;
+    }
     // Where one neighbour sees the same surface and the other another one (a wall's end), the
     // other says nothing about this plane's error (the simulator's corners: 0-1° and exactly 90°).
-    // Where every neighbour is that far off, the disagreement is this plane's (a real street
-    // corner's mixtures of road and facade; a plane that its agreeing neighbours contradict).
-    const bool one_agrees = std::any_of(neighbours.begin(), neighbours.end(),
-                                        [](const Disagreement& d) { return !d.otherSurface(); });
     double angle_squares = 0.0, distance_squares = 0.0;
     int counted = 0;
-    for (const Disagreement& d : neighbours) {
+    for (const auto& [j, d] : neighbours) {
       if (one_agrees && d.otherSurface()) continue;
       angle_squares += d.angle * d.angle;
       distance_squares += d.distance * d.distance;
@@ -270,6 +279,22 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     reference.plane_normal_sigma_rad = std::min(kLargest, std::sqrt(angle_squares / (2.0 * counted)));
     reference.plane_distance_sigma = std::min(kLargest, std::sqrt(distance_squares / (2.0 * counted)));
     degrees[static_cast<std::size_t>(k)] = counted;
+  }
+  // A plane compared with nothing takes the plane error of its place: the larger of the nearest
+  // compared planes' on each side (along a building's walls they agree to a degree; at a street
+  // corner each is another mixture of road and facade; docs/math.md §3.6).
+  for (int k = 0; k < n; ++k) {
+    if (!compared_with_nothing[static_cast<std::size_t>(k)]) continue;
+    KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
+    for (const int step : {-1, 1}) {
+      for (int j = k + step; j >= 0 && j < n; j += step) {
+        if (degrees[static_cast<std::size_t>(j)] == 0) continue;
+        const KeyframeReference& compared = keyframes_[static_cast<std::size_t>(j)];
+        reference.plane_normal_sigma_rad = std::max(reference.plane_normal_sigma_rad, compared.plane_normal_sigma_rad);
+        reference.plane_distance_sigma = std::max(reference.plane_distance_sigma, compared.plane_distance_sigma);
+        break;
+      }
+    }
   }
   keepAtLeastTheRoutesPlaneVariance(degrees, &keyframes_);
 }

@@ -105,8 +105,12 @@ class KeyframeStore {
   // (transferPlane): the two estimates differ by √2 σ when both have σ, so σ = RMS difference / √2
   // over the neighbours (normal angle [rad], distance relative to the plane's), clamped to 0.5. A
   // neighbour that sees another surface (more than 0.6 rad or 60 % off) counts only when no
-  // neighbour agrees: at a corner of a building it sees the next wall (docs/math.md §3.6). A
-  // neighbour whose plane is this one carried (a copy, within 1e-6) is passed over for the next.
+  // neighbour agrees and the two neighbours see one surface between them (this plane is the odd
+  // one): at a corner of a building it sees the next wall (docs/math.md §3.6). A plane whose
+  // neighbours all see other surfaces that differ from each other too (or whose one neighbour does,
+  // at a route's end) was compared with nothing and takes the larger σ of the nearest compared
+  // planes on each side. A neighbour whose plane is this one carried (a copy, within 1e-6) is
+  // passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount);
   // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
   // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
