@@ -235,6 +235,15 @@ class KeyframeStoreOnAWall : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(directory_); }
 
+  // The fast_hd store comparing the planes alone (every feature kept) with their neighbours.
+  static RepeatOptions planesAlone() {
+    RepeatOptions options;
+    options.mode = RepeatMode::kFastHd;
+    options.plane_feature_tolerance_px = 0.0;
+    options.plane_sigma_from_neighbours = true;
+    return options;
+  }
+
   // Turns a plane's normal by `angle` [rad] about the camera's vertical (y) axis.
   static void turnAboutTheVertical(ScenePlane* plane, double angle) {
     const double c = std::cos(angle), s = std::sin(angle);
@@ -285,10 +294,7 @@ TEST_F(KeyframeStoreOnAWall, AKeyframeWithoutParallaxKeepsTheFeaturesSeenOnItsPl
 TEST_F(KeyframeStoreOnAWall, ANeighbourThatSeesAnotherWallSaysNothingAboutThePlanesError) {
   const int n = static_cast<int>(taught_.keyframes.size());
   ASSERT_GE(n, 4);
-  RepeatOptions options;
-  options.mode = RepeatMode::kFastHd;
-  options.plane_feature_tolerance_px = 0.0;  // the planes alone
-  options.plane_sigma_from_neighbours = true;
+  const RepeatOptions options = planesAlone();
   auto turned = [&](int keyframe) {
     Route route = taught_;
     turnAboutTheVertical(&*route.keyframes[static_cast<std::size_t>(keyframe)].plane, 0.8);
@@ -317,7 +323,7 @@ TEST_F(KeyframeStoreOnAWall, ANeighbourThatSeesAnotherWallSaysNothingAboutThePla
 // the next leg's first keyframes keep one wall between two others) was compared with nothing: it
 // takes the plane error of its place, the larger of the nearest compared planes' σ on each side.
 // With the cap instead, l_hall's corner fixes counted for almost nothing: path error mean 0.07 m
-// and 359 of 2456 right poses flagged, against 0.036 m and none (docs/evaluation.md).
+// and 359 of 2456 right poses flagged, against 0.034 m and none (docs/evaluation.md).
 TEST_F(KeyframeStoreOnAWall, APlaneBetweenTwoOtherSurfacesTakesItsPlacesUncertainty) {
   const int n = static_cast<int>(taught_.keyframes.size());
   ASSERT_GE(n, 5);
@@ -325,10 +331,7 @@ TEST_F(KeyframeStoreOnAWall, APlaneBetweenTwoOtherSurfacesTakesItsPlacesUncertai
   // Keyframes 0-1 see wall A (as taught), keyframe 2 wall B (0.7 rad turned), 3.. wall C (1.4 rad).
   turnAboutTheVertical(&*route.keyframes[2].plane, 0.7);
   for (int k = 3; k < n; ++k) turnAboutTheVertical(&*route.keyframes[static_cast<std::size_t>(k)].plane, 1.4);
-  RepeatOptions options;
-  options.mode = RepeatMode::kFastHd;
-  options.plane_feature_tolerance_px = 0.0;  // the planes alone
-  options.plane_sigma_from_neighbours = true;
+  const RepeatOptions options = planesAlone();
   const auto store = KeyframeStore::load(route, options);
   ASSERT_TRUE(store.isOk()) << store.status().toString();
   for (int k = 0; k < n; ++k) std::printf("keyframe %d: sigma_N %.4f rad\n", k, store->at(k).plane_normal_sigma_rad);
@@ -352,10 +355,7 @@ TEST_F(KeyframeStoreOnAWall, APlaneBetweenTwoOtherSurfacesTakesItsPlacesUncertai
 // distance, claimed centimetres (NEES up to 27).
 TEST_F(KeyframeStoreOnAWall, APlaneCopiedToItsNeighbourIsComparedWithTheNextEstimate) {
   ASSERT_GE(taught_.keyframes.size(), 4u);
-  RepeatOptions options;
-  options.mode = RepeatMode::kFastHd;
-  options.plane_feature_tolerance_px = 0.0;  // the planes alone
-  options.plane_sigma_from_neighbours = true;
+  const RepeatOptions options = planesAlone();
   Route route = taught_;
   const Pose2D& m = route.info.camera_mount;
   const CameraMount mount(m.x, m.y, m.yaw);
@@ -383,10 +383,7 @@ TEST_F(KeyframeStoreOnAWall, APlaneThatAgreesByChanceKeepsTheRoutesTypicalUncert
   // σ 0.04/√2; the last one turned as its neighbour but 0.0005 rad more: alone it would claim 0.00035.
   for (std::size_t k = 0; k + 1 < n; ++k) turnAboutTheVertical(&*route.keyframes[k].plane, k % 2 == 0 ? 0.02 : -0.02);
   turnAboutTheVertical(&*route.keyframes[n - 1].plane, ((n - 2) % 2 == 0 ? 0.02 : -0.02) + 0.0005);
-  RepeatOptions options;
-  options.mode = RepeatMode::kFastHd;
-  options.plane_feature_tolerance_px = 0.0;  // the planes alone
-  options.plane_sigma_from_neighbours = true;
+  const RepeatOptions options = planesAlone();
   const auto store = KeyframeStore::load(route, options);
   ASSERT_TRUE(store.isOk()) << store.status().toString();
   const double typical = 0.04 / std::sqrt(2.0);
