@@ -270,7 +270,8 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     // other says nothing about this plane's error (the simulator's corners: 0-1° and exactly 90°).
     double angle_squares = 0.0, distance_squares = 0.0;
     int counted = 0;
-    for (const auto& [j, d] : neighbours) {
+    for (const auto& neighbour : neighbours) {
+      const Disagreement& d = neighbour.second;
       if (one_agrees && d.otherSurface()) continue;
       angle_squares += d.angle * d.angle;
       distance_squares += d.distance * d.distance;
