@@ -60,27 +60,28 @@ Eigen::Matrix3d withHeadingFloor(Eigen::Matrix3d plane_term, const PlanarPoseEst
 
 Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
                                                      const ScenePlane& plane, double normal_sigma_rad,
-                                                     double distance_sigma) {
+                                                     double distance_sigma, const std::optional<Eigen::Vector3d>& pivot) {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   if (!(normal_sigma_rad > 0.0) && !(distance_sigma > 0.0)) return covariance;
   // Two directions across the normal, and the distance: central differences of the closed form.
   const Eigen::Vector3d n = plane.normal.normalized();
   const auto [across1, across2] = directionsAcrossNormal(n);
   constexpr double kStep = 1e-4;
-  auto poseWith = [&](const Eigen::Vector3d& normal, double distance) -> Expected<Eigen::Vector3d> {
-    ScenePlane perturbed = plane;
-    perturbed.normal = normal.normalized();
-    perturbed.distance = distance;
+  const Eigen::Vector3d about = pivot.value_or(plane.distance * n);
+  // The normal turned about `about` (its distance n'ᵀ about), then the distance scaled.
+  auto poseWith = [&](const Eigen::Vector3d& normal, double scale) -> Expected<Eigen::Vector3d> {
+    ScenePlane perturbed = turnedAbout(plane, normal, about);
+    perturbed.distance *= scale;
     const auto solution = solveFastHd(H, camera, perturbed);
     if (!solution) return solution.status();
     return Eigen::Vector3d(solution->pose.x, solution->pose.z, solution->pose.theta);
   };
   Eigen::Matrix3d J;
   const std::array<std::pair<Eigen::Vector3d, double>, 3> steps{
-      {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep * plane.distance}}};
+      {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep}}};
   for (int k = 0; k < 3; ++k) {
-    const auto plus = poseWith(n + steps[k].first, plane.distance + steps[k].second);
-    const auto minus = poseWith(n - steps[k].first, plane.distance - steps[k].second);
+    const auto plus = poseWith(n + steps[k].first, 1.0 + steps[k].second);
+    const auto minus = poseWith(n - steps[k].first, 1.0 - steps[k].second);
     if (!plus) return plus.status();
     if (!minus) return minus.status();
     Eigen::Vector3d difference = *plus - *minus;
@@ -105,8 +106,12 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px,
                                            /*second_order=*/true, &reference_noise_covariance);
   if (!covariance) return covariance.status();
+  std::vector<Eigen::Vector3d> rays;
+  rays.reserve(matches.size());
+  const Eigen::Matrix3d K_inverse = camera.Kinverse();
+  for (const PointMatch& match : matches) rays.push_back(K_inverse * match.reference.homogeneous());
   const auto plane_covariance = planeUncertaintyCovariance(dlt->H_unscaled, camera, plane, options.plane_normal_sigma_rad,
-                                                           options.plane_distance_sigma);
+                                                           options.plane_distance_sigma, centroidOnPlane(plane, rays));
   if (!plane_covariance) return plane_covariance.status();
 
   const Eigen::Matrix3d model_covariance = withHeadingFloor(*plane_covariance, options, camera);

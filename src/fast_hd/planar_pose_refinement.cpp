@@ -333,9 +333,16 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
     // The minimum moves with the plane as −(JᵀJ)⁻¹ ∂(Jᵀr)/∂plane (the gradient stays zero); the
     // closed form's derivative instead reads a few entries of H, and a leaning wall moved its
     // depth several times more than the fit over every match does (docs/math.md §3.6).
+    // The normal turns about the matched points' centroid on the plane (where the matches hold
+    // it), the distance moves the plane along its normal (docs/math.md §3.6).
     const ScenePlane& plane = planes.front().plane;
     const auto [across1, across2] = directionsAcrossNormal(plane.normal);
     constexpr double kStep = 1e-5;
+    std::vector<Eigen::Vector3d> rays;
+    rays.reserve(planes.front().matches.size());
+    const Eigen::Matrix3d K_inverse = camera.Kinverse();
+    for (const PointMatch& match : planes.front().matches) rays.push_back(K_inverse * match.reference.homogeneous());
+    const Eigen::Vector3d pivot = centroidOnPlane(plane, rays).value_or(plane.distance * plane.normal);
     std::vector<PlaneMatches> perturbed = planes;
     const std::array<std::pair<Eigen::Vector3d, double>, 3> steps{
         {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep}}};
@@ -343,8 +350,9 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
       Vector6d gradient[2];
       for (int side = 0; side < 2; ++side) {
         const double sign = side == 0 ? 1.0 : -1.0;
-        perturbed.front().plane.normal = (plane.normal.normalized() + sign * steps[k].first).normalized();
-        perturbed.front().plane.distance = plane.distance * (1.0 + sign * steps[k].second);
+        perturbed.front().plane =
+            k < 2 ? turnedAbout(plane, plane.normal.normalized() + sign * steps[k].first, pivot)
+                  : ScenePlane{plane.normal, plane.distance * (1.0 + sign * steps[k].second)};
         NormalEquations at;
         if (!accumulate(camera, state, perturbed, options.cost, nuisance, false, &at)) {
           return Status(StatusCode::kDegenerate, "pose refinement: a perturbed plane puts the camera on it");

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "homography_teach_repeat/geometry/camera_tilt.h"
+#include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/homography_decomposition.h"
 
 namespace homography_teach_repeat {
@@ -391,6 +392,42 @@ Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<Refer
   }
   for (const auto& pair : pairs) result.motions.push_back(pair.odometry_motion);
   return result;
+}
+
+std::vector<PlaneMatchRating> ratePlaneMatches(const PointMatches& matches, const PinholeCamera& camera,
+                                               const PlanarPose& motion, const ScenePlane& plane,
+                                               double tolerance_px,
+                                               const std::optional<RobustHomographyOptions>& tilt_fit) {
+  Eigen::Matrix3d H = planeInducedHomography(camera, motion, plane);
+  // The same views as if every point were at infinity: the rotation alone.
+  Eigen::Matrix3d H_rotation = camera.K() * motion.rotation21() * camera.Kinverse();
+  if (tilt_fit) {
+    // The neighbour's camera is pitched and rolled against this one, and the planar-motion
+    // homography misses the plane by several pixels (KITTI 07 with one constant mount: 1° between
+    // keyframes, ~12 px).
+    const auto pair = estimateHomographyRobust(matches, *tilt_fit);
+    if (pair) {
+      const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, motion);
+      if (tilt) {
+        const Eigen::Matrix3d T = camera.K() * tilt->tilt() * camera.Kinverse();
+        H = T * H;
+        H_rotation = T * H_rotation;
+      }
+    }
+  }
+  std::vector<PlaneMatchRating> ratings;
+  ratings.reserve(matches.size());
+  for (const PointMatch& match : matches) {
+    const Eigen::Vector2d on_the_plane = applyHomography(H, match.reference);
+    if (!((match.current - on_the_plane).norm() < tolerance_px)) {
+      ratings.push_back(PlaneMatchRating::kOffThePlane);
+    } else {
+      const bool parallax = (on_the_plane - applyHomography(H_rotation, match.reference)).norm() >=
+                            kConfirmingParallax * tolerance_px;
+      ratings.push_back(parallax ? PlaneMatchRating::kOnWithParallax : PlaneMatchRating::kOnWithoutParallax);
+    }
+  }
+  return ratings;
 }
 
 }  // namespace homography_teach_repeat

@@ -34,4 +34,24 @@ Eigen::Matrix3d planeInducedHomography(const PinholeCamera& camera, const Planar
   return H / H.norm();
 }
 
+std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const std::vector<Eigen::Vector3d>& rays) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (const Eigen::Vector3d& ray : rays) {
+    const double along = plane.normal.dot(ray);
+    if (!(along > 1e-12)) continue;  // behind the camera, parallel, or NaN
+    sum += ray * (plane.distance / along);
+    ++count;
+  }
+  if (count == 0) return std::nullopt;
+  return Eigen::Vector3d(sum / count);
+}
+
+ScenePlane turnedAbout(const ScenePlane& plane, const Eigen::Vector3d& normal, const Eigen::Vector3d& pivot) {
+  ScenePlane turned = plane;
+  turned.normal = normal.normalized();
+  turned.distance = turned.normal.dot(pivot);
+  return turned;
+}
+
 }  // namespace homography_teach_repeat

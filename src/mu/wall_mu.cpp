@@ -39,7 +39,11 @@ Expected<double> wallModelVariance(const MuObservation& wall, const Pose2D& base
     const double c = std::cos(normal_turn), s = std::sin(normal_turn);
     moved.wall_normal = Eigen::Vector2d(c * wall.wall_normal.x() - s * wall.wall_normal.y(),
                                         s * wall.wall_normal.x() + c * wall.wall_normal.y());
-    moved.wall_distance = wall.wall_distance * distance_scale;
+    // The normal turns about the wall's pivot (its features' centroid; else its point nearest the
+    // camera), then the distance scales (docs/math.md §3.6, §4.11).
+    Eigen::Vector2d pivot = wall.wall_pivot.value_or(wall.wall_distance * wall.wall_normal);
+    pivot += (wall.wall_distance - wall.wall_normal.dot(pivot)) * wall.wall_normal;  // onto the wall
+    moved.wall_distance = moved.wall_normal.dot(pivot) * distance_scale;
     const auto H = wallHomography1dAt(moved, base);
     if (!H) return H.status();
     return (*H)(0, 1) / (*H)(1, 1);

@@ -138,7 +138,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
     store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
   }
   if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) {
-    store.measurePlaneAgreement(mount);
+    store.measurePlaneAgreement(mount, PinholeCamera(route.info.camera));
     store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
   }
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
@@ -211,7 +211,16 @@ void KeyframeStore::triangulateLines(const PinholeCamera& camera, const CameraMo
   }
 }
 
-void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
+void KeyframeStore::measurePlaneAgreement(const CameraMount& mount, const PinholeCamera& camera) {
+  for (KeyframeReference& reference : keyframes_) {
+    if (!reference.plane) continue;
+    std::vector<Eigen::Vector3d> rays;
+    rays.reserve(reference.features.keypoints.size());
+    for (const cv::KeyPoint& keypoint : reference.features.keypoints) {
+      rays.push_back(camera.pixelToNormalized(keypoint.pt).homogeneous());
+    }
+    reference.plane_pivot = centroidOnPlane(*reference.plane, rays);
+  }
   constexpr double kLargest = 0.5;  // the range PlanarPoseEstimatorOptions accepts
   // Farther apart than this (normal [rad] or relative distance), two planes are not one surface
   // seen twice with errors: at a corner the next keyframe sees the next wall (docs/math.md §3.6).
@@ -232,8 +241,10 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount) {
     // The neighbour's plane behind this camera: as far off as can be.
     Disagreement d{kLargest * std::sqrt(2.0), kLargest * std::sqrt(2.0)};
     if (carried) {
+      // The distances compared where this plane's features are (docs/math.md §3.6).
+      const Eigen::Vector3d pivot = reference.plane_pivot.value_or(reference.plane->distance * reference.plane->normal);
       d.angle = std::acos(std::clamp(carried->normal.dot(reference.plane->normal), -1.0, 1.0));
-      d.distance = std::abs(carried->distance - reference.plane->distance) / reference.plane->distance;
+      d.distance = std::abs(carried->normal.dot(pivot) - carried->distance) / reference.plane->distance;
     }
     return d;
   };
@@ -412,49 +423,26 @@ void KeyframeStore::restrictToPlaneFeatures(const PinholeCamera& camera, const C
     std::vector<int> verdict(reference.features.keypoints.size(), 0);
     for (const int j : neighbours) {
       const KeyframeReference& neighbour = keyframes_[static_cast<std::size_t>(j)];
-      const PlanarPose relative = relativeCamera(k, j);
-      Eigen::Matrix3d H = planeInducedHomography(camera, relative, *reference.plane);
       const auto dmatches = matchFeatures(reference.features, neighbour.features, options.matching);
       if (!dmatches) continue;
       std::vector<int> kept;
       const PointMatches on_pixels =
           undistortMatches(camera, toPointMatches(reference.features, neighbour.features, *dmatches), &kept);
-      // The same views as if every point were at infinity: the rotation alone.
-      Eigen::Matrix3d H_rotation = camera.K() * relative.rotation21() * camera.Kinverse();
-      if (options.pose.tilt_sigma_rad > 0.0) {
-        // Images that are not level (tilt_sigma > 0): the neighbour's camera is pitched and rolled
-        // against this one, and the planar-motion homography misses the plane by several pixels
-        // (KITTI 07 with one constant mount: 1° between keyframes, ~12 px). The pair's own robust
-        // homography gives that tilt (docs/math.md §2.5); the plane stays the keyframe's.
-        const auto pair = estimateHomographyRobust(on_pixels, options.pose.robust);
-        if (pair) {
-          const auto tilt = planeAndTiltFromHomographyAndMotion(pair->H, camera, relative);
-          if (tilt) {
-            const Eigen::Matrix3d T = camera.K() * tilt->tilt() * camera.Kinverse();
-            H = T * H;
-            H_rotation = T * H_rotation;
-          }
-        }
-      }
-      // Where the plane predicts little parallax between the two views (near the direction of
-      // travel, or where the plane recedes towards its vanishing line) a point far off the plane
-      // moves alike, and the match confirms nothing: the plane's parallax against the rotation
-      // alone must reach kConfirmingParallax tolerances (a depth off by half shows then). Found in
-      // the simulator: the gallery's last keyframe, facing along the side wall, kept 7 features of
-      // the far wall that its plane put 25-58 m away, confirmed by the keyframes ahead because they
-      // lay where the robot drove to; 6 of them among 32 inliers gave poses 0.3-0.65° off claiming
-      // 0.03°.
-      constexpr double kConfirmingParallax = 2.0;
+      // Images that are not level (tilt_sigma > 0): the pair's tilt is estimated with the plane
+      // (docs/math.md §2.5). Found in the simulator: the gallery's last keyframe, facing along the
+      // side wall, kept 7 features of the far wall that its plane put 25-58 m away, confirmed by the
+      // keyframes ahead because they lay where the robot drove to (without parallax); 6 of them
+      // among 32 inliers gave poses 0.3-0.65° off claiming 0.03°.
+      const std::optional<RobustHomographyOptions> tilt_fit =
+          options.pose.tilt_sigma_rad > 0.0 ? std::optional(options.pose.robust) : std::nullopt;
+      const std::vector<PlaneMatchRating> ratings = ratePlaneMatches(
+          on_pixels, camera, relativeCamera(k, j), *reference.plane, options.plane_feature_tolerance_px, tilt_fit);
       for (std::size_t i = 0; i < on_pixels.size(); ++i) {
         int& feature = verdict[static_cast<std::size_t>((*dmatches)[static_cast<std::size_t>(kept[i])].queryIdx)];
-        const PointMatch& match = on_pixels[i];
-        const Eigen::Vector2d on_the_plane = applyHomography(H, match.reference);
-        if ((match.current - on_the_plane).norm() >= options.plane_feature_tolerance_px) {
+        if (ratings[i] == PlaneMatchRating::kOffThePlane) {
           feature = -1;
         } else if (feature != -1) {
-          const bool parallax = (on_the_plane - applyHomography(H_rotation, match.reference)).norm() >=
-                                kConfirmingParallax * options.plane_feature_tolerance_px;
-          feature = std::max(feature, parallax ? 2 : 1);
+          feature = std::max(feature, ratings[i] == PlaneMatchRating::kOnWithParallax ? 2 : 1);
         }
       }
     }

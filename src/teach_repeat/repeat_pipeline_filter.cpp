@@ -21,6 +21,8 @@ std::optional<MuObservation> keyframeWall(const RepeatLocalizer& points, const R
   if (wall && k >= 0 && k < points.keyframeCount()) {
     wall->wall_normal_sigma_rad = points.reference(k).plane_normal_sigma_rad;
     wall->wall_distance_sigma = points.reference(k).plane_distance_sigma;
+    const auto& pivot = points.reference(k).plane_pivot;
+    if (pivot) wall->wall_pivot = Eigen::Vector2d(pivot->x(), pivot->z());
   }
   return wall;
 }

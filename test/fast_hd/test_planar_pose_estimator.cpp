@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "support/geometry_fixtures.h"
+#include "homography_teach_repeat/fast_hd/fast_hd.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/homography/homography.h"
@@ -92,6 +93,39 @@ TEST(PlanarPoseEstimator, OptionsValidation) {
   options.pixel_sigma_px = 1.0;
   options.refinement_max_iterations = 0;
   EXPECT_THROW(options.validate(), std::invalid_argument);
+}
+
+// The normal's error turns the plane about a pivot (docs/math.md §3.6): about the plane's point
+// nearest the camera by default, about `pivot` (its features' centroid) when given. Its term is the
+// spread of the poses Fast-HD gives with the plane turned about that point (central differences of
+// 1 mrad across the normal), and a pivot 4 m along the wall from the nearest point gives another.
+TEST(PlanarPoseEstimator, ThePlanesNormalTurnsAboutItsPivot) {
+  const Eigen::Matrix3d H = planeInducedHomography(mathCamera(), kTruth, kPlane);
+  const double sigma = 0.02;
+  const auto spreadTurnedAbout = [&](const Eigen::Vector3d& pivot) {
+    const auto [across1, across2] = directionsAcrossNormal(kPlane.normal);
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& across : {across1, across2}) {
+      const auto plus = solveFastHd(H, mathCamera(), turnedAbout(kPlane, kPlane.normal + 1e-3 * across, pivot));
+      const auto minus = solveFastHd(H, mathCamera(), turnedAbout(kPlane, kPlane.normal - 1e-3 * across, pivot));
+      EXPECT_TRUE(plus.isOk() && minus.isOk());
+      if (!plus || !minus) return covariance;
+      const Eigen::Vector3d column = Eigen::Vector3d(plus->pose.x - minus->pose.x, plus->pose.z - minus->pose.z,
+                                                     plus->pose.theta - minus->pose.theta) / 2e-3;
+      covariance += sigma * sigma * column * column.transpose();
+    }
+    return covariance;
+  };
+  const Eigen::Vector3d nearest = kPlane.distance * kPlane.normal;
+  const auto about_nearest = planeUncertaintyCovariance(H, mathCamera(), kPlane, sigma, 0.0);
+  ASSERT_TRUE(about_nearest.isOk()) << about_nearest.status().toString();
+  EXPECT_LT((*about_nearest - spreadTurnedAbout(nearest)).norm(), 1e-4 * about_nearest->norm());
+  const Eigen::Vector3d along = directionsAcrossNormal(kPlane.normal).first;
+  const Eigen::Vector3d pivot = nearest + 4.0 * along;
+  const auto about_pivot = planeUncertaintyCovariance(H, mathCamera(), kPlane, sigma, 0.0, pivot);
+  ASSERT_TRUE(about_pivot.isOk()) << about_pivot.status().toString();
+  EXPECT_LT((*about_pivot - spreadTurnedAbout(pivot)).norm(), 1e-4 * about_pivot->norm());
+  EXPECT_GT((*about_pivot - *about_nearest).norm(), 0.2 * about_nearest->norm());
 }
 
 // The plane's uncertainty in the covariance (docs/math.md §3.6). The translation scales with the

@@ -131,8 +131,8 @@ TEST(PlanarPoseRefinement, ReferenceNoiseCovarianceIsTheReferenceImagesShare) {
 
 // The plane's error moves the refined pose as plane_jacobian says (docs/math.md §3.6): each
 // column against refining again with the plane turned by 1 mrad across its normal (both
-// directions) or moved by 0.1 % of its distance, from noisy matches; the distance column is
-// (Cx, Cz, 0): the translation scales with the distance.
+// directions) about the matched points' centroid on it, or moved by 0.1 % of its distance, from
+// noisy matches; the distance column is (Cx, Cz, 0): the translation scales with the distance.
 TEST(PlanarPoseRefinement, PlaneJacobianIsHowTheRefinedPoseMovesWithThePlane) {
   std::mt19937_64 rng(21);
   const PointMatches noisy = test_support::addPixelNoise(matchesOf(kPlane, 60, 5), 0.5, &rng);
@@ -147,9 +147,13 @@ TEST(PlanarPoseRefinement, PlaneJacobianIsHowTheRefinedPoseMovesWithThePlane) {
   EXPECT_NEAR(across2.dot(kPlane.normal), 0.0, 1e-12);
   EXPECT_NEAR(across1.y(), 0.0, 1e-12);  // the wall turned about the vertical
   constexpr double kStep = 1e-3;
+  std::vector<Eigen::Vector3d> rays;
+  for (const PointMatch& match : noisy) rays.push_back(mathCamera(800.0).Kinverse() * match.reference.homogeneous());
+  const auto centroid = centroidOnPlane(kPlane, rays);
+  ASSERT_TRUE(centroid.has_value());
   for (int k = 0; k < 3; ++k) {
     ScenePlane moved = kPlane;
-    if (k < 2) moved.normal = (kPlane.normal + kStep * (k == 0 ? across1 : across2)).normalized();
+    if (k < 2) moved = turnedAbout(kPlane, kPlane.normal + kStep * (k == 0 ? across1 : across2), *centroid);
     if (k == 2) moved.distance = kPlane.distance * (1.0 + kStep);
     PoseRefinementOptions again = options;
     again.plane_sensitivity = false;

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -8,6 +9,7 @@
 
 #include "support/geometry_fixtures.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/eval/synthetic_plane_scene.h"
 
 using namespace homography_teach_repeat;
@@ -353,4 +355,40 @@ TEST(PlaneEstimation, PlaneAndTiltFromHomographyAndKnownMotion) {
                 .status()
                 .code(),
             StatusCode::kDegenerate);
+}
+
+// ratePlaneMatches: a wall's matches lie on its plane (with parallax where the camera moved across
+// it), a wall twice as far does not; a turn in place predicts no parallax and confirms nothing; a
+// tilted neighbour's matches miss the planar-motion prediction unless the pair's tilt is fitted.
+TEST(PlaneEstimation, MatchesRatedAgainstTheKeyframesPlane) {
+  const PinholeCamera& camera = mathCamera();
+  const ScenePlane wall{Eigen::Vector3d(0.0, 0.0, 1.0), 5.0};
+  const ScenePlane far_wall{Eigen::Vector3d(0.0, 0.0, 1.0), 10.0};
+  const PlanarPose sideways(0.5, 0.3, 0.05);
+  std::mt19937_64 rng(3);
+  PointMatches matches = sampleVisiblePlaneMatches(camera, wall, sideways, 30, &rng);
+  for (const PointMatch& far : sampleVisiblePlaneMatches(camera, far_wall, sideways, 10, &rng)) matches.push_back(far);
+  const double tolerance = 2.0;
+  const auto ratings = ratePlaneMatches(matches, camera, sideways, wall, tolerance, std::nullopt);
+  ASSERT_EQ(ratings.size(), matches.size());
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    EXPECT_EQ(ratings[i], i < 30 ? PlaneMatchRating::kOnWithParallax : PlaneMatchRating::kOffThePlane) << i;
+  }
+
+  const PlanarPose turn(0.0, 0.0, 0.2);
+  PointMatches turned = sampleVisiblePlaneMatches(camera, wall, turn, 10, &rng);
+  for (const PointMatch& far : sampleVisiblePlaneMatches(camera, far_wall, turn, 10, &rng)) turned.push_back(far);
+  for (const PlaneMatchRating rating : ratePlaneMatches(turned, camera, turn, wall, tolerance, std::nullopt)) {
+    EXPECT_EQ(rating, PlaneMatchRating::kOnWithoutParallax);
+  }
+
+  // The neighbour pitched by 0.02 rad: ~10 px off the planar prediction.
+  const Eigen::Matrix3d T = camera.K() * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX()).toRotationMatrix() *
+                            camera.Kinverse();
+  PointMatches tilted = sampleVisiblePlaneMatches(camera, wall, sideways, 40, &rng);
+  for (PointMatch& match : tilted) match.current = applyHomography(T, match.current);
+  const auto level = ratePlaneMatches(tilted, camera, sideways, wall, tolerance, std::nullopt);
+  EXPECT_EQ(std::count(level.begin(), level.end(), PlaneMatchRating::kOffThePlane), 40);
+  const auto fitted = ratePlaneMatches(tilted, camera, sideways, wall, tolerance, RobustHomographyOptions{});
+  EXPECT_EQ(std::count(fitted.begin(), fitted.end(), PlaneMatchRating::kOnWithParallax), 40);
 }

@@ -313,25 +313,41 @@ TEST(LocalizationFilter, AnUncertainWallMakesItsMuUncertain) {
   wall.wall_distance_sigma = 0.05;
   const auto variance = wallModelVariance(wall, behind);
   ASSERT_TRUE(variance.isOk()) << variance.status().toString();
+  // The spread of μ over walls drawn with those stds, the normal turned about `pivot` (a point on
+  // the wall) and the distance then scaled.
   std::mt19937 random(3);
   std::normal_distribution<double> unit(0.0, 1.0);
-  double sum = 0.0, squares = 0.0;
-  const int draws = 20000;
-  for (int i = 0; i < draws; ++i) {
-    MuObservation drawn = wall;
-    const double turn = wall.wall_normal_sigma_rad * unit(random);
-    drawn.wall_normal = Eigen::Vector2d(std::cos(turn) * wall.wall_normal.x() - std::sin(turn) * wall.wall_normal.y(),
-                                        std::sin(turn) * wall.wall_normal.x() + std::cos(turn) * wall.wall_normal.y());
-    drawn.wall_distance = wall.wall_distance * (1.0 + wall.wall_distance_sigma * unit(random));
-    const auto H = wallHomography1dAt(drawn, behind);
-    ASSERT_TRUE(H.isOk());
-    const double mu = (*H)(0, 1) / (*H)(1, 1);
-    sum += mu;
-    squares += mu * mu;
-  }
-  const double spread = squares / draws - (sum / draws) * (sum / draws);
+  const auto spreadOfMu = [&](const Eigen::Vector2d& pivot) {
+    double sum = 0.0, squares = 0.0;
+    const int draws = 20000;
+    for (int i = 0; i < draws; ++i) {
+      MuObservation drawn = wall;
+      const double turn = wall.wall_normal_sigma_rad * unit(random);
+      drawn.wall_normal = Eigen::Vector2d(std::cos(turn) * wall.wall_normal.x() - std::sin(turn) * wall.wall_normal.y(),
+                                          std::sin(turn) * wall.wall_normal.x() + std::cos(turn) * wall.wall_normal.y());
+      drawn.wall_distance = drawn.wall_normal.dot(pivot) * (1.0 + wall.wall_distance_sigma * unit(random));
+      const auto H = wallHomography1dAt(drawn, behind);
+      EXPECT_TRUE(H.isOk());
+      if (!H) return 0.0;
+      const double mu = (*H)(0, 1) / (*H)(1, 1);
+      sum += mu;
+      squares += mu * mu;
+    }
+    return squares / draws - (sum / draws) * (sum / draws);
+  };
+  const double spread = spreadOfMu(wall.wall_distance * wall.wall_normal);
   EXPECT_GT(*variance, 0.5);  // px²: a metre behind a wall 5 m away, degrees of normal matter
   EXPECT_NEAR(*variance / spread, 1.0, 0.05) << *variance << " px² against " << spread;
+  // The wall's features 4 m along it from its point nearest the camera (a facade seen obliquely):
+  // the normal's error turns the wall about them, and μ's spread is another.
+  const Eigen::Vector2d along(wall.wall_normal.y(), -wall.wall_normal.x());
+  MuObservation oblique = wall;
+  oblique.wall_pivot = wall.wall_distance * wall.wall_normal + 4.0 * along;
+  const auto oblique_variance = wallModelVariance(oblique, behind);
+  ASSERT_TRUE(oblique_variance.isOk()) << oblique_variance.status().toString();
+  const double oblique_spread = spreadOfMu(*oblique.wall_pivot);
+  EXPECT_NEAR(*oblique_variance / oblique_spread, 1.0, 0.05) << *oblique_variance << " px² against " << oblique_spread;
+  EXPECT_GT(std::abs(oblique_spread / spread - 1.0), 0.2) << oblique_spread << " px² against " << spread;
   EXPECT_NEAR(*wallModelVariance(wall, wall.reference_pose), 0.0, 1e-6);
   MuObservation bad = wall;
   bad.wall_normal_sigma_rad = -0.1;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 
 #include <vector>
 
@@ -73,10 +74,13 @@ struct PlanarPoseEstimate {
 };
 
 // The pose covariance that the plane's uncertainty adds (see the options above) for the pose Fast-HD
-// gives from H and `plane`. Fails like solveFastHd.
+// gives from H and `plane`: its normal turned about `pivot` (the matched points' centroid on the
+// plane, centroidOnPlane; nullopt: the plane's point nearest the camera), its distance scaled
+// (docs/math.md §3.6). Fails like solveFastHd.
 Expected<Eigen::Matrix3d> planeUncertaintyCovariance(const Eigen::Matrix3d& H, const PinholeCamera& camera,
                                                      const ScenePlane& plane, double normal_sigma_rad,
-                                                     double distance_sigma);
+                                                     double distance_sigma,
+                                                     const std::optional<Eigen::Vector3d>& pivot = std::nullopt);
 
 // Outlier-free input (all matches used): DLT -> Fast-HD -> covariance -> refinement.
 // Status: kTooFewPoints (< 4), kDegenerate (collinear points, floor/ceiling plane, κ = 0),

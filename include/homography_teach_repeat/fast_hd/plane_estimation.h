@@ -18,6 +18,8 @@
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
+#include "homography_teach_repeat/geometry/point_match.h"
+#include "homography_teach_repeat/homography/robust_homography.h"
 #include "homography_teach_repeat/common/status.h"
 
 namespace homography_teach_repeat {
@@ -154,5 +156,23 @@ bool isPlausibleWall(const ScenePlane& plane, const OdometryPlaneOptions& option
 Expected<RouteSequencePlanes> estimatePlanesFromOdometry(const std::vector<ReferencePair>& pairs,
                                                         const PinholeCamera& camera,
                                                         const OdometryPlaneOptions& options = {});
+
+// How each match between a keyframe's image and a neighbouring view agrees with the keyframe's
+// plane (the repeat keeps a keyframe's features that lie on it; docs/math.md §2.5, §2.6):
+// `matches` undistorted pixels, reference = the keyframe; `motion` the neighbour's camera in the
+// keyframe's frame; a match is on the plane when its current pixel lies within `tolerance_px` of
+// where the plane-induced homography puts its reference pixel. With `tilt_fit` (images that are not
+// level) the pair's own robust homography gives the neighbour's tilt against the keyframe
+// (planeAndTiltFromHomographyAndMotion) and the prediction includes it; the plane stays
+// `plane`. Where the plane predicts little parallax against the rotation alone (near the direction
+// of travel, or towards the plane's vanishing line), a point far off the plane moves alike and its
+// match confirms nothing: it counts as confirming only where the two predictions lie at least
+// kConfirmingParallax tolerances apart.
+enum class PlaneMatchRating { kOffThePlane, kOnWithoutParallax, kOnWithParallax };
+constexpr double kConfirmingParallax = 2.0;
+std::vector<PlaneMatchRating> ratePlaneMatches(const PointMatches& matches, const PinholeCamera& camera,
+                                               const PlanarPose& motion, const ScenePlane& plane,
+                                               double tolerance_px,
+                                               const std::optional<RobustHomographyOptions>& tilt_fit);
 
 }  // namespace homography_teach_repeat

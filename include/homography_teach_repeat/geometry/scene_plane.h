@@ -4,6 +4,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
+#include <vector>
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
@@ -21,6 +23,14 @@ struct ScenePlane {
   // kDegenerate for a floor/ceiling plane (nx = nz = 0: Π is singular, det Π = d²(nx² + nz²)).
   Status validate() const;
 };
+
+// Where the plane's uncertainty turns it (docs/math.md §3.6): the centroid of the points where
+// `rays` (directions in the plane's camera frame, any length) meet it; rays that meet it behind the
+// camera or run parallel to it are left out. nullopt when none meets it.
+std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const std::vector<Eigen::Vector3d>& rays);
+// `plane` with its normal turned to `normal` (normalised here) about `pivot`, a point on the plane:
+// the distance becomes n'ᵀ pivot (docs/math.md §3.6).
+ScenePlane turnedAbout(const ScenePlane& plane, const Eigen::Vector3d& normal, const Eigen::Vector3d& pivot);
 
 // The homography a plane induces between a reference camera and a camera at `pose`
 // (docs/math.md §1.2): H21 ∝ K (R21 − t21 n1ᵀ / d1) K⁻¹, t21 = R21 C. Unit Frobenius norm.

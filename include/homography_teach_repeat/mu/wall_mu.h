@@ -34,6 +34,9 @@ struct MuObservation {
   // the wall predicts is then uncertain too (wallModelVariance, §4.11).
   double wall_normal_sigma_rad = 0.0;
   double wall_distance_sigma = 0.0;
+  // The point (x, z) [m] of the reference camera frame on the wall that its normal's error turns it
+  // about (KeyframeReference::plane_pivot); absent: the wall's point nearest the camera.
+  std::optional<Eigen::Vector2d> wall_pivot;
 };
 
 // The wall model of a reference with pose `reference_pose` (route frame) and scene `plane` (its

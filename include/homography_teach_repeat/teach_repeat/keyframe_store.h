@@ -29,9 +29,13 @@ struct KeyframeReference {
   std::optional<ScenePlane> plane;     // camera frame of this reference
   double heading_offset = 0.0;         // mu mode: yaw of this reference relative to its keyframe
   // The plane's uncertainty measured from the neighbours (RepeatOptions::plane_sigma_from_neighbours):
-  // std of the normal's direction [rad] and of the distance [fraction]; 0 when not measured.
+  // std of the normal's direction [rad], turning it about plane_pivot, and of the distance along
+  // the normal there [fraction of the plane's distance]; 0 when not measured (docs/math.md §3.6).
   double plane_normal_sigma_rad = 0.0;
   double plane_distance_sigma = 0.0;
+  // The centroid of its plane features on the plane [m, camera frame] (centroidOnPlane), measured
+  // with the sigmas; absent: the plane's point nearest the camera.
+  std::optional<Eigen::Vector3d> plane_pivot;
   // Where its neighbours' planes agree with it (plane_normal_sigma_rad below 0.1 rad), the error
   // of a fix against this keyframe measured instead: its neighbours' stored images relocalized
   // against it as the repeat does, each error (fix − taught, camera frame (x, z, θ)) over the
@@ -103,7 +107,8 @@ class KeyframeStore {
   void restrictToPlaneFeatures(const PinholeCamera& camera, const CameraMount& mount, const RepeatOptions& options);
   // Each plane against its neighbours' planes carried into its frame by the taught motion
   // (transferPlane): the two estimates differ by √2 σ when both have σ, so σ = RMS difference / √2
-  // over the neighbours (normal angle [rad], distance relative to the plane's), clamped to 0.5. A
+  // over the neighbours (normal angle [rad]; the distance at this plane's features' centroid
+  // (plane_pivot), relative to the plane's), clamped to 0.5. A
   // neighbour that sees another surface (more than 0.6 rad or 60 % off) counts only when no
   // neighbour agrees and the two neighbours see one surface between them (this plane is the odd
   // one): at a corner of a building it sees the next wall (docs/math.md §3.6). A plane whose
@@ -111,7 +116,7 @@ class KeyframeStore {
   // at a route's end) was compared with nothing and takes the larger σ of the nearest compared
   // planes on each side. A neighbour whose plane is this one carried (a copy, within 1e-6) is
   // passed over for the next.
-  void measurePlaneAgreement(const CameraMount& mount);
+  void measurePlaneAgreement(const CameraMount& mount, const PinholeCamera& camera);
   // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
   // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
   // and that were not reached by turning (turnedBetween), matched to its plane features and
