@@ -106,12 +106,9 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px,
                                            /*second_order=*/true, &reference_noise_covariance);
   if (!covariance) return covariance.status();
-  std::vector<Eigen::Vector3d> rays;
-  rays.reserve(matches.size());
-  const Eigen::Matrix3d K_inverse = camera.Kinverse();
-  for (const PointMatch& match : matches) rays.push_back(K_inverse * match.reference.homogeneous());
   const auto plane_covariance = planeUncertaintyCovariance(dlt->H_unscaled, camera, plane, options.plane_normal_sigma_rad,
-                                                           options.plane_distance_sigma, centroidOnPlane(plane, rays));
+                                                           options.plane_distance_sigma,
+                                                           centroidOnPlane(plane, camera, matches));
   if (!plane_covariance) return plane_covariance.status();
 
   const Eigen::Matrix3d model_covariance = withHeadingFloor(*plane_covariance, options, camera);

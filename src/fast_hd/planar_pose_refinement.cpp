@@ -338,11 +338,8 @@ Expected<RefinedPlanarPose> refinePlanarPose(const PlanarPose& initial,
     const ScenePlane& plane = planes.front().plane;
     const auto [across1, across2] = directionsAcrossNormal(plane.normal);
     constexpr double kStep = 1e-5;
-    std::vector<Eigen::Vector3d> rays;
-    rays.reserve(planes.front().matches.size());
-    const Eigen::Matrix3d K_inverse = camera.Kinverse();
-    for (const PointMatch& match : planes.front().matches) rays.push_back(K_inverse * match.reference.homogeneous());
-    const Eigen::Vector3d pivot = centroidOnPlane(plane, rays).value_or(plane.distance * plane.normal);
+    const Eigen::Vector3d pivot =
+        centroidOnPlane(plane, camera, planes.front().matches).value_or(plane.distance * plane.normal);
     std::vector<PlaneMatches> perturbed = planes;
     const std::array<std::pair<Eigen::Vector3d, double>, 3> steps{
         {{kStep * across1, 0.0}, {kStep * across2, 0.0}, {Eigen::Vector3d::Zero(), kStep}}};

@@ -47,6 +47,15 @@ std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const st
   return Eigen::Vector3d(sum / count);
 }
 
+std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const PinholeCamera& camera,
+                                               const PointMatches& matches) {
+  std::vector<Eigen::Vector3d> rays;
+  rays.reserve(matches.size());
+  const Eigen::Matrix3d K_inverse = camera.Kinverse();
+  for (const PointMatch& match : matches) rays.push_back(K_inverse * match.reference.homogeneous());
+  return centroidOnPlane(plane, rays);
+}
+
 ScenePlane turnedAbout(const ScenePlane& plane, const Eigen::Vector3d& normal, const Eigen::Vector3d& pivot) {
   ScenePlane turned = plane;
   turned.normal = normal.normalized();

@@ -9,6 +9,7 @@
 
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/geometry/pinhole_camera.h"
+#include "homography_teach_repeat/geometry/point_match.h"
 #include "homography_teach_repeat/geometry/planar_pose.h"
 
 namespace homography_teach_repeat {
@@ -28,6 +29,10 @@ struct ScenePlane {
 // `rays` (directions in the plane's camera frame, any length) meet it; rays that meet it behind the
 // camera or run parallel to it are left out. nullopt when none meets it.
 std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const std::vector<Eigen::Vector3d>& rays);
+// The same for the reference pixels of `matches` (undistorted, the plane's camera): where a fix's
+// matches hold the plane.
+std::optional<Eigen::Vector3d> centroidOnPlane(const ScenePlane& plane, const PinholeCamera& camera,
+                                               const PointMatches& matches);
 // `plane` with its normal turned to `normal` (normalised here) about `pivot`, a point on the plane:
 // the distance becomes n'ᵀ pivot (docs/math.md §3.6).
 ScenePlane turnedAbout(const ScenePlane& plane, const Eigen::Vector3d& normal, const Eigen::Vector3d& pivot);
