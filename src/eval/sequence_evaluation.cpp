@@ -289,6 +289,7 @@ Expected<SequenceEvaluation> evaluateSequence(const RecordedSequence& teach, con
     options.teach.keyframes.distance = std::numeric_limits<double>::min();
     options.teach.keyframes.angle = std::numeric_limits<double>::min();
   }
+  options.teach.plane_measurement = options.repeat.localization;  // the planes' uncertainty as this repeat would measure it
   for (const int index : selection.teach_frames) {
     bool unreadable = false;
     auto prepared = load(teach, index, "teach", &unreadable);

@@ -258,6 +258,20 @@ std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext&
   return nullptr;
 }
 
+PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options) {
+  if (!reference.neighbour_fix_error_per_m2) {
+    options.plane_normal_sigma_rad = std::max(options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
+    options.plane_distance_sigma = std::max(options.plane_distance_sigma, reference.plane_distance_sigma);
+  }
+  options.pixel_sigma_px *= reference.pixel_noise_scale;
+  return options;
+}
+
+Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {
+  if (!reference.neighbour_fix_error_per_m2) return Eigen::Matrix3d::Zero();
+  return (camera_pose.x * camera_pose.x + camera_pose.z * camera_pose.z) * *reference.neighbour_fix_error_per_m2;
+}
+
 Status checkPoseOnPlane(const PlanarPoseEstimate& pose, const ScenePlane& plane, const PointMatches& matches,
                         const PinholeCamera& camera, const RepeatOptions& options) {
   // The pose must explain the matches through the keyframe's plane. Any homography gives a

@@ -72,20 +72,6 @@ double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::opt
   return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
 }
 
-PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options) {
-  if (!reference.neighbour_fix_error_per_m2) {
-    options.plane_normal_sigma_rad = std::max(options.plane_normal_sigma_rad, reference.plane_normal_sigma_rad);
-    options.plane_distance_sigma = std::max(options.plane_distance_sigma, reference.plane_distance_sigma);
-  }
-  options.pixel_sigma_px *= reference.pixel_noise_scale;
-  return options;
-}
-
-Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {
-  if (!reference.neighbour_fix_error_per_m2) return Eigen::Matrix3d::Zero();
-  return (camera_pose.x * camera_pose.x + camera_pose.z * camera_pose.z) * *reference.neighbour_fix_error_per_m2;
-}
-
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
   return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
 }
@@ -138,8 +124,13 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
     store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
   }
   if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) {
-    store.measurePlaneAgreement(mount, PinholeCamera(route.info.camera));
-    store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
+    if (planeUncertaintyStored(route)) {  // measured by the teach run (or a migration)
+      for (std::size_t k = 0; k < route.keyframes.size(); ++k) store.setPlaneUncertainty(k, route.keyframes[k].plane_uncertainty);
+    } else {
+      store.measurePlaneAgreement(mount, PinholeCamera(route.info.camera));
+      store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
+    }
+    store.plane_uncertainty_known_ = true;
   }
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
     store.triangulateLines(PinholeCamera(route.info.camera), mount, options.line_landmarks);
@@ -359,6 +350,22 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
     }
     if (measured > 0) reference.neighbour_fix_error_per_m2 = Eigen::Matrix3d(sum / measured);
   }
+}
+
+void KeyframeStore::setPlaneUncertainty(std::size_t keyframe, const std::optional<PlaneUncertainty>& stored) {
+  KeyframeReference& reference = keyframes_[keyframe];
+  if (!stored || !reference.plane) return;
+  reference.plane_normal_sigma_rad = stored->normal_sigma_rad;
+  reference.plane_distance_sigma = stored->distance_sigma;
+  reference.plane_pivot = stored->pivot;
+  reference.neighbour_fix_error_per_m2 = stored->fix_error_per_m2;
+}
+
+std::optional<PlaneUncertainty> KeyframeStore::planeUncertainty(int keyframe) const {
+  const KeyframeReference& reference = at(keyframe);
+  if (!plane_uncertainty_known_ || !reference.plane) return std::nullopt;
+  return PlaneUncertainty{reference.plane_normal_sigma_rad, reference.plane_distance_sigma, reference.plane_pivot,
+                          reference.neighbour_fix_error_per_m2};
 }
 
 std::vector<Pose2D> KeyframeStore::poses() const {

@@ -17,10 +17,15 @@
 #include "homography_teach_repeat/teach_repeat/route_files.h"
 
 namespace homography_teach_repeat {
+using route_files::emitPairMeasurement;
+using route_files::emitPlaneUncertainty;
 using route_files::keyframeStem;
+using route_files::readPairMeasurement;
+using route_files::readPlaneUncertainty;
 using route_files::Reader;
 using route_files::writeFeaturesFile;
 using route_files::writeImageFile;
+using route_files::writeLinesFile;
 
 namespace {
 
@@ -60,46 +65,6 @@ void emitPose(YAML::Emitter& out, const Pose2D& pose) {
   out << YAML::Flow << YAML::BeginMap << YAML::Key << "x" << YAML::Value << pose.x << YAML::Key
       << "y" << YAML::Value << pose.y << YAML::Key << "yaw" << YAML::Value << pose.yaw
       << YAML::EndMap;
-}
-
-// A keyframe's or an experience's measured pair (match_residual, tilt_to_next), where it has one.
-void emitPairMeasurement(YAML::Emitter& out, const std::optional<MatchResidual>& residual,
-                         const std::optional<PairTilt>& tilt) {
-  if (residual) {
-    out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
-        << YAML::Value << residual->rms_px << YAML::Key << "inliers" << YAML::Value << residual->inliers
-        << YAML::EndMap;
-  }
-  if (tilt) {
-    out << YAML::Key << "tilt_to_next" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "pitch"
-        << YAML::Value << tilt->pitch << YAML::Key << "roll" << YAML::Value << tilt->roll << YAML::EndMap;
-  }
-}
-
-// The same read and validated; errors name `owner` ("keyframe 3", "keyframe 3, experience 1").
-void readPairMeasurement(const Reader& reader, const YAML::Node& node, const std::string& owner, int version,
-                         std::optional<MatchResidual>* residual_out, std::optional<PairTilt>* tilt_out) {
-  if (const YAML::Node residual = node["match_residual"]) {
-    const std::string name = owner + ": match_residual";
-    if (version < 3) throw reader.error(residual, name + " needs format_version 3");
-    if (!residual.IsMap()) throw reader.error(residual, name + " must be a map {rms_px, inliers}");
-    MatchResidual measured;
-    measured.rms_px = reader.get<double>(residual, "rms_px");
-    measured.inliers = reader.get<int>(residual, "inliers");
-    if (!std::isfinite(measured.rms_px) || !(measured.rms_px > 0.0)) {
-      throw reader.error(residual, name + ".rms_px must be finite and > 0");
-    }
-    if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
-    *residual_out = measured;
-  }
-  if (const YAML::Node tilt = node["tilt_to_next"]) {
-    const std::string name = owner + ": tilt_to_next";
-    if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
-    if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
-    const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
-    if (!measured.inRange()) throw reader.error(tilt, name + " must be finite and within 0.1 rad");
-    *tilt_out = measured;
-  }
 }
 
 }  // namespace
@@ -163,28 +128,7 @@ Status RouteWriter::addKeyframe(const cv::Mat& image, const ImageFeatures& featu
   status = writeFeaturesFile(route_.directory + "/" + keyframe.features_file, features);
   if (!status.isOk()) return status;
 
-  YAML::Emitter out;
-  out << YAML::BeginMap << YAML::Key << "lines" << YAML::Value << YAML::BeginSeq;
-  for (const auto& l : lines) {
-    out << YAML::Flow << YAML::BeginMap;
-    out << YAML::Key << "x" << YAML::Value << l.x;
-    out << YAML::Key << "top" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.top.x() << l.top.y()
-        << YAML::EndSeq;
-    out << YAML::Key << "bottom" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.bottom.x()
-        << l.bottom.y() << YAML::EndSeq;
-    out << YAML::Key << "top_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
-        << l.top_undistorted.x() << l.top_undistorted.y() << YAML::EndSeq;
-    out << YAML::Key << "bottom_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
-        << l.bottom_undistorted.x() << l.bottom_undistorted.y() << YAML::EndSeq;
-    out << YAML::Key << "length" << YAML::Value << l.length;
-    out << YAML::Key << "dark_left" << YAML::Value << (l.polarity == EdgePolarity::kDarkLeft);
-    out << YAML::Key << "left_brightness" << YAML::Value << l.left_brightness;
-    out << YAML::Key << "right_brightness" << YAML::Value << l.right_brightness;
-    out << YAML::Key << "contrast" << YAML::Value << l.contrast;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq << YAML::EndMap;
-  status = writeFileAtomically(route_.directory + "/" + keyframe.lines_file, out.c_str());
+  status = writeLinesFile(route_.directory + "/" + keyframe.lines_file, lines);
   if (!status.isOk()) return status;
 
   route_.keyframes.push_back(keyframe);
@@ -201,9 +145,61 @@ Status RouteWriter::setPlanes(const std::vector<std::optional<ScenePlane>>& plan
   if (!(first_plane_distance >= 0.0) || !std::isfinite(first_plane_distance)) {
     return Status(StatusCode::kInvalidInput, "first_plane_distance must be finite and >= 0");
   }
-  for (std::size_t k = 0; k < planes.size(); ++k) route_.keyframes[k].plane = planes[k];
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    route_.keyframes[k].plane = planes[k];
+    route_.keyframes[k].plane_uncertainty.reset();
+  }
   route_.info.first_plane_distance = first_plane_distance;
   return writeIndex();
+}
+
+Status RouteWriter::setPlaneUncertainties(const std::vector<std::optional<PlaneUncertainty>>& uncertainties) {
+  if (uncertainties.size() != route_.keyframes.size()) {
+    return Status(StatusCode::kInvalidInput, "one plane uncertainty (or none) per keyframe is needed");
+  }
+  for (std::size_t k = 0; k < uncertainties.size(); ++k) {
+    if (!uncertainties[k]) continue;
+    const std::string keyframe = "keyframe " + std::to_string(k) + ": plane uncertainty";
+    if (!route_.keyframes[k].plane) return Status(StatusCode::kInvalidInput, keyframe + " without a plane");
+    const Status valid = uncertainties[k]->validate();
+    if (!valid.isOk()) return Status(StatusCode::kInvalidInput, keyframe + ": " + valid.message());
+  }
+  for (std::size_t k = 0; k < uncertainties.size(); ++k) route_.keyframes[k].plane_uncertainty = uncertainties[k];
+  return writeIndex();
+}
+
+Status PlaneUncertainty::validate() const {
+  constexpr double kLargest = 0.5;  // what PlanarPoseEstimatorOptions accepts
+  const auto invalid = [](const std::string& message) { return Status(StatusCode::kInvalidInput, message); };
+  if (!(normal_sigma_rad >= 0.0 && normal_sigma_rad <= kLargest)) return invalid("normal_rad must be within [0, 0.5]");
+  if (!(distance_sigma >= 0.0 && distance_sigma <= kLargest)) return invalid("distance must be within [0, 0.5]");
+  if (pivot && !pivot->allFinite()) return invalid("pivot is not finite");
+  if (fix_error_per_m2) {
+    const Eigen::Matrix3d& e = *fix_error_per_m2;
+    if (!e.allFinite()) return invalid("fix_error_per_m2 is not finite");
+    if ((e - e.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + e.cwiseAbs().maxCoeff())) {
+      return invalid("fix_error_per_m2 is not symmetric");
+    }
+    if ((e.diagonal().array() < 0.0).any()) return invalid("fix_error_per_m2 has a negative variance");
+  }
+  return Status::ok();
+}
+
+bool PlaneUncertainty::liesOn(const ScenePlane& plane) const {
+  return !pivot || std::abs(plane.normal.dot(*pivot) - plane.distance) <= 1e-9 * (1.0 + plane.distance);
+}
+
+bool planeUncertaintyMissing(const Route& route) {
+  for (const RouteKeyframe& k : route.keyframes) {
+    if (k.plane && !(k.plane_uncertainty && k.plane_uncertainty->liesOn(*k.plane))) return true;
+  }
+  return false;
+}
+
+bool planeUncertaintyStored(const Route& route) {
+  bool any = false;
+  for (const RouteKeyframe& k : route.keyframes) any = any || k.plane.has_value();
+  return any && !planeUncertaintyMissing(route);
 }
 
 Status RouteWriter::setMeasuredNoise(const std::vector<std::optional<MatchResidual>>& residuals,
@@ -314,6 +310,7 @@ Status writeRouteIndex(const Route& route) {
       out << YAML::Key << "distance" << YAML::Value << k.plane->distance << YAML::EndMap;
     }
     emitPairMeasurement(out, k.match_residual, k.tilt_to_next);
+    emitPlaneUncertainty(out, k.plane_uncertainty);
     if (!k.experiences.empty()) {
       out << YAML::Key << "experiences" << YAML::Value << YAML::BeginSeq;
       for (const RouteExperience& e : k.experiences) {
@@ -440,6 +437,7 @@ Expected<Route> loadRoute(const std::string& directory) {
       }
       readPairMeasurement(reader, node, "keyframe " + std::to_string(k.index), version, &k.match_residual,
                           &k.tilt_to_next);
+      k.plane_uncertainty = readPlaneUncertainty(reader, node, "keyframe " + std::to_string(k.index), version, k.plane);
       if (const YAML::Node experiences = node["experiences"]) {
         if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
         if (!experiences.IsSequence()) throw reader.error(experiences, "'experiences' must be a list");

@@ -1,6 +1,6 @@
 // The files of one keyframe (docs/route_format.md): its image, its features (and those of its
-// learned views, addExperience) and its vertical lines, read and written; route.cpp has the
-// route's index.
+// learned views, addExperience) and its vertical lines, read and written, and the entries of the
+// index that hold what was measured of it (route_files.h); route.cpp has the route's index.
 #include "homography_teach_repeat/teach_repeat/route.h"
 
 #include <yaml-cpp/yaml.h>
@@ -38,6 +38,116 @@ Status writeFeaturesFile(const std::string& path, const ImageFeatures& features)
   cv::write(storage, "keypoints", features.keypoints);
   storage << "descriptors" << features.descriptors;
   return writeFileAtomically(path, storage.releaseAndGetString());
+}
+
+void emitPairMeasurement(YAML::Emitter& out, const std::optional<MatchResidual>& residual,
+                         const std::optional<PairTilt>& tilt) {
+  if (residual) {
+    out << YAML::Key << "match_residual" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "rms_px"
+        << YAML::Value << residual->rms_px << YAML::Key << "inliers" << YAML::Value << residual->inliers
+        << YAML::EndMap;
+  }
+  if (tilt) {
+    out << YAML::Key << "tilt_to_next" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "pitch"
+        << YAML::Value << tilt->pitch << YAML::Key << "roll" << YAML::Value << tilt->roll << YAML::EndMap;
+  }
+}
+
+void readPairMeasurement(const Reader& reader, const YAML::Node& node, const std::string& owner, int version,
+                         std::optional<MatchResidual>* residual_out, std::optional<PairTilt>* tilt_out) {
+  if (const YAML::Node residual = node["match_residual"]) {
+    const std::string name = owner + ": match_residual";
+    if (version < 3) throw reader.error(residual, name + " needs format_version 3");
+    if (!residual.IsMap()) throw reader.error(residual, name + " must be a map {rms_px, inliers}");
+    MatchResidual measured;
+    measured.rms_px = reader.get<double>(residual, "rms_px");
+    measured.inliers = reader.get<int>(residual, "inliers");
+    if (!std::isfinite(measured.rms_px) || !(measured.rms_px > 0.0)) {
+      throw reader.error(residual, name + ".rms_px must be finite and > 0");
+    }
+    if (measured.inliers < 4) throw reader.error(residual, name + ".inliers must be >= 4");
+    *residual_out = measured;
+  }
+  if (const YAML::Node tilt = node["tilt_to_next"]) {
+    const std::string name = owner + ": tilt_to_next";
+    if (version < 4) throw reader.error(tilt, name + " needs format_version 4");
+    if (!tilt.IsMap()) throw reader.error(tilt, name + " must be a map {pitch, roll}");
+    const PairTilt measured{reader.get<double>(tilt, "pitch"), reader.get<double>(tilt, "roll")};
+    if (!measured.inRange()) throw reader.error(tilt, name + " must be finite and within 0.1 rad");
+    *tilt_out = measured;
+  }
+}
+
+void emitPlaneUncertainty(YAML::Emitter& out, const std::optional<PlaneUncertainty>& uncertainty) {
+  if (!uncertainty) return;
+  out << YAML::Key << "plane_uncertainty" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "normal_rad" << YAML::Value << uncertainty->normal_sigma_rad;
+  out << YAML::Key << "distance" << YAML::Value << uncertainty->distance_sigma;
+  if (uncertainty->pivot) {
+    const Eigen::Vector3d& p = *uncertainty->pivot;
+    out << YAML::Key << "pivot" << YAML::Value << YAML::Flow << std::vector<double>{p.x(), p.y(), p.z()};
+  }
+  if (uncertainty->fix_error_per_m2) {
+    std::vector<double> rows;
+    for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) rows.push_back((*uncertainty->fix_error_per_m2)(r, c));
+    out << YAML::Key << "fix_error_per_m2" << YAML::Value << YAML::Flow << rows;
+  }
+  out << YAML::EndMap;
+}
+
+std::optional<PlaneUncertainty> readPlaneUncertainty(const Reader& reader, const YAML::Node& node, const std::string& owner,
+                                                     int version, const std::optional<ScenePlane>& plane) {
+  const YAML::Node entry = node["plane_uncertainty"];
+  if (!entry) return std::nullopt;
+  const std::string name = owner + ": plane_uncertainty";
+  if (version < 5) throw reader.error(entry, name + " needs format_version 5");
+  if (!plane) throw reader.error(entry, name + " without a plane");
+  if (!entry.IsMap()) throw reader.error(entry, name + " must be a map {normal_rad, distance, pivot, fix_error_per_m2}");
+  PlaneUncertainty read;
+  read.normal_sigma_rad = reader.get<double>(entry, "normal_rad");
+  read.distance_sigma = reader.get<double>(entry, "distance");
+  if (entry["pivot"]) {
+    const auto pivot = reader.get<std::vector<double>>(entry, "pivot");
+    if (pivot.size() != 3) throw reader.error(entry["pivot"], name + ".pivot needs 3 numbers");
+    read.pivot = Eigen::Vector3d(pivot[0], pivot[1], pivot[2]);
+  }
+  if (entry["fix_error_per_m2"]) {
+    const auto rows = reader.get<std::vector<double>>(entry, "fix_error_per_m2");
+    if (rows.size() != 9) throw reader.error(entry["fix_error_per_m2"], name + ".fix_error_per_m2 needs 9 numbers (row-major)");
+    Eigen::Matrix3d error;
+    for (std::size_t i = 0; i < 9; ++i) error(static_cast<int>(i / 3), static_cast<int>(i % 3)) = rows[i];
+    read.fix_error_per_m2 = error;
+  }
+  const Status valid = read.validate();
+  if (!valid.isOk()) throw reader.error(entry, name + ": " + valid.message());
+  // Measured with another plane (an index edited by hand): stale.
+  if (!read.liesOn(*plane)) throw reader.error(entry, name + ": pivot is not on the keyframe's plane");
+  return read;
+}
+
+Status writeLinesFile(const std::string& path, const std::vector<VerticalLine>& lines) {
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "lines" << YAML::Value << YAML::BeginSeq;
+  for (const auto& l : lines) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "x" << YAML::Value << l.x;
+    out << YAML::Key << "top" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.top.x() << l.top.y()
+        << YAML::EndSeq;
+    out << YAML::Key << "bottom" << YAML::Value << YAML::Flow << YAML::BeginSeq << l.bottom.x()
+        << l.bottom.y() << YAML::EndSeq;
+    out << YAML::Key << "top_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << l.top_undistorted.x() << l.top_undistorted.y() << YAML::EndSeq;
+    out << YAML::Key << "bottom_undistorted" << YAML::Value << YAML::Flow << YAML::BeginSeq
+        << l.bottom_undistorted.x() << l.bottom_undistorted.y() << YAML::EndSeq;
+    out << YAML::Key << "length" << YAML::Value << l.length;
+    out << YAML::Key << "dark_left" << YAML::Value << (l.polarity == EdgePolarity::kDarkLeft);
+    out << YAML::Key << "left_brightness" << YAML::Value << l.left_brightness;
+    out << YAML::Key << "right_brightness" << YAML::Value << l.right_brightness;
+    out << YAML::Key << "contrast" << YAML::Value << l.contrast;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return writeFileAtomically(path, out.c_str());
 }
 
 }  // namespace route_files

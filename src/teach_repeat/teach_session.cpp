@@ -8,6 +8,7 @@
 #include <string>
 
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 
 namespace homography_teach_repeat {
 
@@ -75,6 +76,7 @@ void TeachOptions::validate() const {
   robust.validate();
   lines.validate();
   keyframes.validate();
+  plane_measurement.validate();
   if (!std::isfinite(first_plane_distance) || first_plane_distance < 0.0) {
     throw std::invalid_argument("first_plane_distance must be finite and >= 0 (0: no planes)");
   }
@@ -198,6 +200,14 @@ Expected<PlaneEstimationReport> TeachSession::finish() {
   }
   const Status written = writer_->setPlanes(planes, options_.first_plane_distance);
   if (!written.isOk()) return written;
+  if (report.planes > 0) {
+    Route measured = route;
+    const Status uncertainty = measurePlaneUncertainty(measured, options_.plane_measurement);
+    std::vector<std::optional<PlaneUncertainty>> uncertainties;
+    for (const RouteKeyframe& keyframe : measured.keyframes) uncertainties.push_back(keyframe.plane_uncertainty);
+    const Status stored = uncertainty.isOk() ? writer_->setPlaneUncertainties(uncertainties) : uncertainty;
+    if (!stored.isOk()) report.messages.push_back("plane uncertainty: " + stored.message());
+  }
   return report;
 }
 
@@ -256,11 +266,32 @@ Status measureRouteNoise(Route& route, const MatchOptions& matching, const Robus
   return Status::ok();
 }
 
+Status measurePlaneUncertainty(Route& route, const RepeatOptions& options) {
+  Route unmeasured = route;  // the store reads stored values: this measures afresh
+  for (RouteKeyframe& keyframe : unmeasured.keyframes) {
+    keyframe.plane_uncertainty.reset();
+    keyframe.experiences.clear();
+  }
+  RepeatOptions measuring = withMeasuredNoise(options, route);
+  measuring.mode = RepeatMode::kFastHd;
+  measuring.require_planes = false;
+  measuring.use_experiences = false;
+  measuring.plane_sigma_from_neighbours = true;
+  const auto store = KeyframeStore::load(unmeasured, measuring);
+  if (!store) return store.status();
+  for (int k = 0; k < store->size(); ++k) route.keyframes[static_cast<std::size_t>(k)].plane_uncertainty = store->planeUncertainty(k);
+  return Status::ok();
+}
+
 Status migrateRoute(const std::string& directory) {
   auto route = loadRoute(directory);
   if (!route) return route.status();
   if (!route->info.match_noise_measured || !route->info.tilt_measured) {
     Status measured = measureRouteNoise(*route);
+    if (!measured.isOk()) return measured;
+  }
+  if (planeUncertaintyMissing(*route)) {
+    const Status measured = measurePlaneUncertainty(*route);
     if (!measured.isOk()) return measured;
   }
   return writeRouteIndex(*route);

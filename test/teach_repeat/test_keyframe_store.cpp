@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
+#include "homography_teach_repeat/teach_repeat/keyframe_estimators.h"
 #include "homography_teach_repeat/sim/differential_drive.h"
 #include "homography_teach_repeat/sim/planar_world.h"
 #include "homography_teach_repeat/sim/waypoint_driver.h"
@@ -232,6 +233,10 @@ class KeyframeStoreOnAWall : public ::testing::Test {
     auto loaded = loadRoute(directory_);
     ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
     taught_ = std::move(*loaded);
+    // The teach run stored each plane's uncertainty; the tests below change planes and poses and
+    // have the store measure it at load (the last test: what it stores).
+    stored_ = taught_;
+    for (RouteKeyframe& keyframe : taught_.keyframes) keyframe.plane_uncertainty.reset();
   }
   void TearDown() override { std::filesystem::remove_all(directory_); }
 
@@ -253,7 +258,8 @@ class KeyframeStoreOnAWall : public ::testing::Test {
 
   const test_support::SyntheticWall wall_;
   std::string directory_;
-  Route taught_;
+  Route taught_;  // without the stored plane uncertainty
+  Route stored_;  // as taught
 };
 
 // A keyframe whose neighbours see its features move as its plane predicts, but nowhere by the
@@ -554,6 +560,76 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
   const auto unmeasured = KeyframeStore::load(taught_, options);
   ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
   for (int k = 0; k < n; ++k) EXPECT_FALSE(unmeasured->at(k).neighbour_fix_error_per_m2) << k;
+}
+
+// The teach run stores each plane's uncertainty (measurePlaneUncertainty; docs/route_format.md,
+// "Measured noise"): what the store measures at load, read instead where every plane has it, and
+// what the store then holds whatever it is; a route where one plane lacks it is measured at load
+// as a whole; without plane_sigma_from_neighbours neither.
+TEST_F(KeyframeStoreOnAWall, TheTeachRunStoresThePlanesUncertaintyTheRepeatReads) {
+  const int n = static_cast<int>(taught_.keyframes.size());
+  ASSERT_GE(n, 4);
+  ASSERT_TRUE(planeUncertaintyStored(stored_));
+  ASSERT_TRUE(planeUncertaintyMissing(taught_));
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_sigma_from_neighbours = true;
+  options = withMeasuredNoise(options, taught_);  // as RepeatLocalizer and the teach run measure
+  const auto at_load = KeyframeStore::load(taught_, options);
+  ASSERT_TRUE(at_load.isOk()) << at_load.status().toString();
+  const auto read = KeyframeStore::load(stored_, options);
+  ASSERT_TRUE(read.isOk()) << read.status().toString();
+  for (int k = 0; k < n; ++k) {
+    const PlaneUncertainty stored = *stored_.keyframes[static_cast<std::size_t>(k)].plane_uncertainty;
+    ASSERT_TRUE(at_load->planeUncertainty(k)) << k;
+    const PlaneUncertainty measured = *at_load->planeUncertainty(k);
+    EXPECT_NEAR(stored.normal_sigma_rad, measured.normal_sigma_rad, 1e-12) << k;
+    EXPECT_NEAR(stored.distance_sigma, measured.distance_sigma, 1e-12) << k;
+    ASSERT_TRUE(stored.pivot && measured.pivot) << k;
+    EXPECT_LT((*stored.pivot - *measured.pivot).norm(), 1e-9) << k;
+    ASSERT_EQ(stored.fix_error_per_m2.has_value(), measured.fix_error_per_m2.has_value()) << k;
+    if (stored.fix_error_per_m2) {
+      EXPECT_LT((*stored.fix_error_per_m2 - *measured.fix_error_per_m2).norm(), 1e-12) << k;
+    }
+    EXPECT_EQ(read->at(k).plane_normal_sigma_rad, stored.normal_sigma_rad) << k;
+  }
+
+  // Read, whatever it holds: keyframe 2's changed.
+  Route changed = stored_;
+  const ScenePlane& plane = *changed.keyframes[2].plane;
+  const Eigen::Vector3d pivot = plane.distance * plane.normal + 0.5 * plane.normal.cross(Eigen::Vector3d::UnitY()).normalized();
+  *changed.keyframes[2].plane_uncertainty = PlaneUncertainty{0.2, 0.15, pivot, std::nullopt};
+  const auto store = KeyframeStore::load(changed, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  EXPECT_EQ(store->at(2).plane_normal_sigma_rad, 0.2);
+  EXPECT_EQ(store->at(2).plane_distance_sigma, 0.15);
+  ASSERT_TRUE(store->at(2).plane_pivot);
+  EXPECT_EQ(*store->at(2).plane_pivot, pivot);
+  EXPECT_FALSE(store->at(2).neighbour_fix_error_per_m2);
+  EXPECT_EQ(store->planeUncertainty(2)->normal_sigma_rad, 0.2);
+  EXPECT_EQ(store->at(1).plane_normal_sigma_rad, stored_.keyframes[1].plane_uncertainty->normal_sigma_rad);
+
+  // One plane without it, or a plane changed after it was measured (its pivot off the plane): all
+  // measured at load.
+  Route replaned = changed;
+  replaned.keyframes[3].plane->distance += 0.1;
+  EXPECT_TRUE(planeUncertaintyMissing(replaned));
+  const auto replaned_store = KeyframeStore::load(replaned, options);
+  ASSERT_TRUE(replaned_store.isOk()) << replaned_store.status().toString();
+  EXPECT_NE(replaned_store->at(2).plane_normal_sigma_rad, 0.2);
+  changed.keyframes[3].plane_uncertainty.reset();
+  const auto remeasured = KeyframeStore::load(changed, options);
+  ASSERT_TRUE(remeasured.isOk()) << remeasured.status().toString();
+  EXPECT_NEAR(remeasured->at(2).plane_normal_sigma_rad, at_load->at(2).plane_normal_sigma_rad, 1e-12);
+  EXPECT_EQ(remeasured->at(2).neighbour_fix_error_per_m2.has_value(), at_load->at(2).neighbour_fix_error_per_m2.has_value());
+
+  options.plane_sigma_from_neighbours = false;
+  const auto unmeasured = KeyframeStore::load(stored_, options);
+  ASSERT_TRUE(unmeasured.isOk()) << unmeasured.status().toString();
+  for (int k = 0; k < n; ++k) {
+    EXPECT_FALSE(unmeasured->planeUncertainty(k)) << k;
+    EXPECT_EQ(unmeasured->at(k).plane_normal_sigma_rad, 0.0) << k;
+  }
 }
 
 // fixPoseOptions and neighbourFixCovariance (docs/math.md §3.10): a keyframe with its neighbours'

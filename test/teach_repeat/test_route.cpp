@@ -179,7 +179,7 @@ TEST(Route, CorruptOrMissingFilesNameTheFile) {
       << truncated.status().message();
   // Unknown version.
   std::string newer = *index;
-  newer.replace(newer.find("format_version: 4"), 17, "format_version: 7");
+  newer.replace(newer.find("format_version: 5"), 17, "format_version: 7");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", newer).isOk());
   auto version = loadRoute(dir);
   EXPECT_NE(version.status().message().find("unknown format_version 7"), std::string::npos);
@@ -303,17 +303,18 @@ TEST(Route, KeepsTheLevellingOfATiltedMount) {
   EXPECT_NE(bad.status().message().find("camera_to_level"), std::string::npos) << bad.status().message();
 }
 
-// Versions 1 (before experiences), 2 (before the measured noise) and 3 (before the measured tilt)
+// Versions 1 (before experiences), 2 (before the measured noise), 3 (before the measured tilt) and 4
+// (before the planes' uncertainty; these keyframes have no plane)
 // are read as they are and rewritten as the current version by migrateRoute, keyframes unchanged and
 // the match noise and tilt measured.
 TEST(Route, MigratesOlderRoutesMeasuringTheirNoise) {
-  for (const char* version : {"1", "2", "3"}) {
+  for (const char* version : {"1", "2", "3", "4"}) {
     const std::string dir = temporaryDirectory();
     writeRoute(dir, 3);
     auto index = readWholeFile(dir + "/route.yaml");
     ASSERT_TRUE(index.isOk());
     std::string old = *index;
-    old.replace(old.find("format_version: 4"), 17, std::string("format_version: ") + version);
+    old.replace(old.find("format_version: 5"), 17, std::string("format_version: ") + version);
     ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", old).isOk());
     const auto before = loadRoute(dir);
     ASSERT_TRUE(before.isOk()) << before.status().toString();
@@ -404,7 +405,7 @@ TEST(Route, MeasuredTiltIsKeptAndValidated) {
                     {{"{pitch: .nan, roll: 0.002}", "keyframe 1"}, {"{pitch: -0.2, roll: 0.002}", "keyframe 1"},
                      {"{pitch: -0.02}", "roll"}});
   std::string older = *index;
-  older.replace(older.find("format_version: 4"), 17, "format_version: 3");
+  older.replace(older.find("format_version: 5"), 17, "format_version: 3");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
   const auto refused = loadRoute(dir);
   ASSERT_FALSE(refused.isOk());
@@ -417,6 +418,106 @@ TEST(Route, MeasuredTiltIsKeptAndValidated) {
   EXPECT_FALSE(writer->setMeasuredNoise({std::nullopt}, {PairTilt{0.0, 0.15}}).isOk());
   EXPECT_TRUE(writer->setMeasuredNoise({std::nullopt}, {PairTilt{0.0, 0.05}}).isOk());
   EXPECT_TRUE(writer->route().info.tilt_measured);
+}
+
+// Each plane's uncertainty (format 5) round-trips; stored counts only where every keyframe with a
+// plane has it; a value out of range, not finite, an asymmetric fix error, one on a keyframe
+// without a plane or in a format 4 index is refused on load naming the keyframe, and by the writer.
+TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
+  const std::string dir = temporaryDirectory();
+  writeRoute(dir, 3);
+  auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  EXPECT_FALSE(planeUncertaintyStored(*route));  // no planes: nothing to store
+  EXPECT_FALSE(planeUncertaintyMissing(*route));
+  for (RouteKeyframe& keyframe : route->keyframes) keyframe.plane = ScenePlane{Eigen::Vector3d::UnitZ(), 4.0};
+  EXPECT_TRUE(planeUncertaintyMissing(*route));
+  PlaneUncertainty measured;
+  measured.normal_sigma_rad = 0.0625;
+  measured.distance_sigma = 0.03125;
+  measured.pivot = Eigen::Vector3d(0.5, -0.25, 4.0);
+  Eigen::Matrix3d error;
+  error << 0.0004, 0.0001, 0.0, 0.0001, 0.0009, 0.0, 0.0, 0.0, 1e-6;
+  measured.fix_error_per_m2 = error;
+  route->keyframes[0].plane_uncertainty = measured;
+  route->keyframes[1].plane_uncertainty = PlaneUncertainty{0.125, 0.25, std::nullopt, std::nullopt};
+  EXPECT_TRUE(planeUncertaintyMissing(*route));  // keyframe 2's
+  EXPECT_FALSE(planeUncertaintyStored(*route));
+  route->keyframes[2].plane.reset();
+  EXPECT_TRUE(planeUncertaintyStored(*route));
+  ASSERT_TRUE(writeRouteIndex(*route).isOk());
+  const auto loaded = loadRoute(dir);
+  ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
+  EXPECT_TRUE(planeUncertaintyStored(*loaded));
+  ASSERT_TRUE(loaded->keyframes[0].plane_uncertainty);
+  const PlaneUncertainty& read = *loaded->keyframes[0].plane_uncertainty;
+  EXPECT_DOUBLE_EQ(read.normal_sigma_rad, 0.0625);
+  EXPECT_DOUBLE_EQ(read.distance_sigma, 0.03125);
+  ASSERT_TRUE(read.pivot);
+  EXPECT_DOUBLE_EQ(read.pivot->y(), -0.25);
+  ASSERT_TRUE(read.fix_error_per_m2);
+  EXPECT_LT((*read.fix_error_per_m2 - error).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_TRUE(loaded->keyframes[1].plane_uncertainty);
+  EXPECT_FALSE(loaded->keyframes[1].plane_uncertainty->pivot);
+  EXPECT_FALSE(loaded->keyframes[1].plane_uncertainty->fix_error_per_m2);
+  EXPECT_FALSE(loaded->keyframes[2].plane_uncertainty);
+  Route replaned = *loaded;  // a plane changed after its uncertainty was measured
+  replaned.keyframes[0].plane->distance = 4.5;
+  EXPECT_TRUE(planeUncertaintyMissing(replaned));
+  EXPECT_FALSE(planeUncertaintyStored(replaned));
+
+  auto index = readWholeFile(dir + "/route.yaml");
+  ASSERT_TRUE(index.isOk());
+  expectEachRefused(dir, *index, "{normal_rad: 0.125, distance: 0.25}",
+                    {{"{normal_rad: .nan, distance: 0.25}", "keyframe 1"},
+                     {"{normal_rad: 0.6, distance: 0.25}", "keyframe 1"},
+                     {"{normal_rad: 0.125, distance: -0.01}", "keyframe 1"},
+                     {"{normal_rad: 0.125, distance: 0.25, pivot: [1, 2]}", "pivot"},
+                     {"{normal_rad: 0.125, distance: 0.25, fix_error_per_m2: [1, 0, 0, 0, 1, 0, 0, 0, -1]}", "negative"},
+                     {"{normal_rad: 0.125}", "distance"},
+                     {"{normal_rad: 0.125, distance: 0.25, pivot: [0, 0, 3]}", "pivot is not on the keyframe's plane"}});
+  std::string older = *index;
+  older.replace(older.find("format_version: 5"), 17, "format_version: 4");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
+  auto refused = loadRoute(dir);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("format_version 5"), std::string::npos) << refused.status().message();
+  Route asymmetric = *loaded;
+  (*asymmetric.keyframes[0].plane_uncertainty->fix_error_per_m2)(0, 1) = 0.5;
+  ASSERT_TRUE(writeRouteIndex(asymmetric).isOk());
+  refused = loadRoute(dir);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("keyframe 0: plane_uncertainty: fix_error_per_m2 is not symmetric"),
+            std::string::npos) << refused.status().message();
+  Route planeless = *loaded;
+  planeless.keyframes[0].plane.reset();
+  ASSERT_TRUE(writeRouteIndex(planeless).isOk());
+  refused = loadRoute(dir);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("keyframe 0: plane_uncertainty without a plane"), std::string::npos)
+      << refused.status().message();
+
+  auto writer = RouteWriter::create(temporaryDirectory(), route->info);
+  ASSERT_TRUE(writer.isOk());
+  ASSERT_TRUE(writer->addKeyframe(image(1), features(3), {}, Pose2D(0, 0, 0), 1.0).isOk());
+  ASSERT_TRUE(writer->addKeyframe(image(2), features(3), {}, Pose2D(1, 0, 0), 2.0).isOk());
+  EXPECT_FALSE(writer->setPlaneUncertainties({measured}).isOk());  // one per keyframe
+  const Status planeless_refused = writer->setPlaneUncertainties({measured, std::nullopt});
+  EXPECT_NE(planeless_refused.message().find("keyframe 0: plane uncertainty without a plane"), std::string::npos)
+      << planeless_refused.message();
+  ASSERT_TRUE(writer->setPlanes({ScenePlane{Eigen::Vector3d::UnitZ(), 4.0}, std::nullopt}, 0.0).isOk());
+  PlaneUncertainty not_finite = measured;
+  not_finite.pivot = Eigen::Vector3d(std::nan(""), 0.0, 4.0);
+  const Status nan_refused = writer->setPlaneUncertainties({not_finite, std::nullopt});
+  EXPECT_NE(nan_refused.message().find("keyframe 0"), std::string::npos) << nan_refused.message();
+  EXPECT_NE(nan_refused.message().find("pivot"), std::string::npos) << nan_refused.message();
+  ASSERT_TRUE(writer->setPlaneUncertainties({measured, std::nullopt}).isOk());
+  const auto written = loadRoute(writer->route().directory);
+  ASSERT_TRUE(written.isOk()) << written.status().toString();
+  EXPECT_TRUE(planeUncertaintyStored(*written));
+  // New planes make the old uncertainty stale: setPlanes clears it.
+  ASSERT_TRUE(writer->setPlanes({ScenePlane{Eigen::Vector3d::UnitZ(), 5.0}, std::nullopt}, 0.0).isOk());
+  EXPECT_TRUE(planeUncertaintyMissing(writer->route()));
 }
 
 // Experiences: written file by file then the index (each atomically), read back with their pose

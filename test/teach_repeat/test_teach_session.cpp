@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 
+#include "homography_teach_repeat/common/atomic_file.h"
 #include "homography_teach_repeat/geometry/scene_plane.h"
 #include "homography_teach_repeat/fast_hd/plane_estimation.h"
 #include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
@@ -165,6 +166,77 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   repeat.match_residual_gain = 1.5;
   repeat.measured_tilt_gain = 11.0;
   EXPECT_THROW(repeat.validate(), std::invalid_argument);
+  std::filesystem::remove_all(dir);
+}
+
+// The teach run measures each plane's uncertainty from its neighbours as the repeat would at load
+// and stores it (format 5; docs/route_format.md, "Measured noise"); a route of format 4 lacks it:
+// the repeat's log says it is measured at load and how to store it, and migrateRoute stores what
+// the teach run would have.
+TEST(TeachSession, StoresThePlanesUncertainty) {
+  const std::string dir = makeTemporaryDirectory("htr_teach_planes");
+  auto session = TeachSession::start(wallTeachOptions(dir), calibration(), Pose2D(0.0, 0.0, 0.0));
+  ASSERT_TRUE(session.isOk()) << session.status().toString();
+  const SyntheticWall scene;
+  for (int step = 0; step <= 15; ++step) {
+    const double s = 0.1 * step;
+    const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
+    ASSERT_TRUE(session->offer(scene.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step).isOk());
+  }
+  const auto report = session->finish();
+  ASSERT_TRUE(report.isOk()) << report.status().toString();
+  EXPECT_TRUE(report->messages.empty()) << report->messages.front();
+  const auto route = loadRoute(dir);
+  ASSERT_TRUE(route.isOk()) << route.status().toString();
+  EXPECT_EQ(route->loaded_format_version, 5);
+  ASSERT_TRUE(planeUncertaintyStored(*route));
+  EXPECT_FALSE(planeUncertaintyMissing(*route));
+  int with_fix_error = 0;
+  for (const RouteKeyframe& keyframe : route->keyframes) {
+    ASSERT_TRUE(keyframe.plane_uncertainty) << keyframe.index;
+    const PlaneUncertainty& u = *keyframe.plane_uncertainty;
+    EXPECT_LT(u.normal_sigma_rad, 0.1) << keyframe.index;  // one wall, seen from 0.25 m apart
+    EXPECT_LT(u.distance_sigma, 0.1) << keyframe.index;
+    ASSERT_TRUE(u.pivot) << keyframe.index;
+    EXPECT_NEAR(keyframe.plane->normal.dot(*u.pivot), keyframe.plane->distance, 1e-9) << keyframe.index;  // on it
+    with_fix_error += u.fix_error_per_m2 ? 1 : 0;
+  }
+  EXPECT_GE(with_fix_error, 4);
+  RepeatOptions repeat;
+  EXPECT_NE(describeMeasuredNoise(repeat, *route).find("as the route stores it"), std::string::npos)
+      << describeMeasuredNoise(repeat, *route);
+  EXPECT_EQ(describeMeasuredNoise(repeat, *route).find("--migrate"), std::string::npos)
+      << describeMeasuredNoise(repeat, *route);
+
+  // The same route as format 4.
+  Route version4 = *route;
+  for (RouteKeyframe& keyframe : version4.keyframes) keyframe.plane_uncertainty.reset();
+  ASSERT_TRUE(writeRouteIndex(version4).isOk());
+  auto index = readWholeFile(dir + "/route.yaml");
+  ASSERT_TRUE(index.isOk());
+  std::string older = *index;
+  older.replace(older.find("format_version: 5"), 17, "format_version: 4");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
+  const auto loaded4 = loadRoute(dir);
+  ASSERT_TRUE(loaded4.isOk()) << loaded4.status().toString();
+  EXPECT_EQ(loaded4->loaded_format_version, 4);
+  EXPECT_TRUE(planeUncertaintyMissing(*loaded4));
+  const std::string told = describeMeasuredNoise(repeat, *loaded4);
+  EXPECT_NE(told.find("measured at load"), std::string::npos) << told;
+  EXPECT_NE(told.find("route_info --migrate " + dir), std::string::npos) << told;
+  ASSERT_TRUE(migrateRoute(dir).isOk());
+  const auto migrated = loadRoute(dir);
+  ASSERT_TRUE(migrated.isOk()) << migrated.status().toString();
+  EXPECT_EQ(migrated->loaded_format_version, 5);
+  ASSERT_TRUE(planeUncertaintyStored(*migrated));
+  for (std::size_t k = 0; k < route->keyframes.size(); ++k) {
+    const PlaneUncertainty& taught = *route->keyframes[k].plane_uncertainty;
+    const PlaneUncertainty& again = *migrated->keyframes[k].plane_uncertainty;
+    EXPECT_NEAR(again.normal_sigma_rad, taught.normal_sigma_rad, 1e-9) << k;
+    EXPECT_NEAR(again.distance_sigma, taught.distance_sigma, 1e-9) << k;
+    EXPECT_NEAR((*again.pivot - *taught.pivot).norm(), 0.0, 1e-9) << k;
+    ASSERT_EQ(again.fix_error_per_m2.has_value(), taught.fix_error_per_m2.has_value()) << k;
+  }
   std::filesystem::remove_all(dir);
 }
 

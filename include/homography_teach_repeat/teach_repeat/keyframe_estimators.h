@@ -72,6 +72,18 @@ class KeyframeEstimator {
 
 std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext& context);
 
+// The pose options of a Fast-HD fix against `reference` from the repeat's (docs/math.md §3.6, §3.9,
+// §3.10): the pixel σ times the keyframe's scale; the plane's σ the configured one or the
+// keyframe's own where larger, except where its neighbours' fixes measured the error
+// (neighbour_fix_error_per_m2), where the configured one alone. The repeat and the route audit
+// both take them from here.
+PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options);
+// What the neighbours' fixes add to the covariance of a fix at `camera_pose` (the current camera in
+// the reference camera's frame; camera frame (x, z, θ)): d² times neighbour_fix_error_per_m2, d
+// the camera's displacement; zero without it. Part of the fix's shared error: every fix against
+// the keyframe has it (docs/math.md §7.1).
+Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose);
+
 // The fast_hd mode's checks of a pose against the reference's plane, which refuse it
 // (kNoConsensus, naming which): its inliers' RMS residual about the plane-induced homography of
 // the pose (with its tilt and height offset) above options.max_plane_residual_px, or, with enough

@@ -41,7 +41,8 @@ struct KeyframeReference {
   // against it as the repeat does, each error (fix − taught, camera frame (x, z, θ)) over the
   // distance between the cameras, E[e eᵀ / d²] [1, 1, rad² per m²] (measureNeighbourFixes;
   // docs/math.md §3.10). A fix at displacement d then carries d² times it in place of the plane's
-  // term (fixPoseOptions, neighbourFixCovariance). Absent: no neighbour measured, or they disagree.
+  // term (keyframe_estimators.h: fixPoseOptions, neighbourFixCovariance). Absent: no neighbour
+  // measured, or they disagree.
   std::optional<Eigen::Matrix3d> neighbour_fix_error_per_m2;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
   // This keyframe's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe): the RMS
@@ -61,18 +62,6 @@ bool turnedBetween(const Pose2D& a, const Pose2D& b);
 // 0.2 m and 20°), not a view from elsewhere [m]. The neighbours' fixes and the route audit skip it.
 constexpr double kSameViewpointM = 0.1;
 
-// The pose options of a Fast-HD fix against `reference` from the repeat's (docs/math.md §3.6, §3.9,
-// §3.10): the pixel σ times the keyframe's scale; the plane's σ the configured one or the
-// keyframe's own where larger, except where its neighbours' fixes measured the error
-// (neighbour_fix_error_per_m2), where the configured one alone. The repeat and the route audit
-// both take them from here.
-PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options);
-// What the neighbours' fixes add to the covariance of a fix at `camera_pose` (the current camera in
-// the reference camera's frame; camera frame (x, z, θ)): d² times neighbour_fix_error_per_m2, d
-// the camera's displacement; zero without it. Part of the fix's shared error: every fix against
-// the keyframe has it (docs/math.md §7.1).
-Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose);
-
 // Keyframe k's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe,
 // KeyframeReference::pixel_noise_scale; docs/math.md §3.9): the RMS match residual of the teach
 // run's pairs that include it (k − 1 → k and k → k + 1) over `route_residual` (routeMatchResidual),
@@ -85,7 +74,8 @@ class KeyframeStore {
   // Loads what `options.mode` needs of every keyframe. kInvalidInput naming the file for a corrupt
   // keyframe, for a route without keyframes, and when fast_hd/classic meets a keyframe without a
   // plane. fast_hd/classic with plane_feature_tolerance_px > 0: each keyframe keeps only the
-  // features on its plane (restrictToPlaneFeatures).
+  // features on its plane (restrictToPlaneFeatures). fast_hd with plane_sigma_from_neighbours:
+  // each plane's error read from the route, or measured where the route does not store it.
   static Expected<KeyframeStore> load(const Route& route, const RepeatOptions& options);
 
   int size() const { return static_cast<int>(keyframes_.size()); }
@@ -98,6 +88,11 @@ class KeyframeStore {
   }
   int experienceCount() const;
   std::vector<Pose2D> poses() const;
+  // Keyframe k's plane error as the store holds it: read from the route where every plane has it
+  // stored (planeUncertaintyStored), measured at load otherwise (measurePlaneAgreement,
+  // measureNeighbourFixes); nullopt without a plane, and unless fast_hd loaded with
+  // RepeatOptions::plane_sigma_from_neighbours. What the teach run stores (measurePlaneUncertainty).
+  std::optional<PlaneUncertainty> planeUncertainty(int keyframe) const;
 
  private:
   // Every vertical plane's homography under planar motion has the same form, and a side wall
@@ -127,11 +122,15 @@ class KeyframeStore {
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
   void triangulateLines(const PinholeCamera& camera, const CameraMount& mount, const LineLandmarkOptions& options);
 
+  // A keyframe's stored plane_uncertainty into its reference (nothing without one or a plane).
+  void setPlaneUncertainty(std::size_t keyframe, const std::optional<PlaneUncertainty>& stored);
+
   // Loads each keyframe's experiences (after the keyframes' planes are final).
   Status loadExperiences(const Route& route, const CameraMount& mount);
 
   std::vector<KeyframeReference> keyframes_;
   std::vector<std::vector<KeyframeReference>> experiences_;
+  bool plane_uncertainty_known_ = false;  // measured or read (planeUncertainty)
 };
 
 }  // namespace homography_teach_repeat

@@ -190,7 +190,7 @@ struct LocalizeTiming {
 RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route);
 // One line for the log: which pixel σ and tilt σ withMeasuredNoise gives and where each comes from
 // (the route's measurement and the gain; the gain 0; or a route that was not measured, with how to
-// measure it).
+// measure it), and whether the planes' uncertainty is read from the route or measured at load.
 std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route);
 
 }  // namespace homography_teach_repeat

@@ -5,10 +5,10 @@
 // Every file is written atomically (atomic_file.h) and the index last, so a crash while teaching
 // loses at most the keyframe being written: the index only ever lists complete keyframes.
 //
-// route.yaml (format_version 4; versions 1, without experiences, 2, without the measured match
-// noise, and 3, without the measured tilt, are read as well and rewritten as 4 by migrateRoute, which
-// measures what is missing, or the next write):
-//   format_version: 4
+// route.yaml (format_version 5; versions 1, without experiences, 2, without the measured match
+// noise, 3, without the measured tilt, and 4, without the planes' measured uncertainty, are read as
+// well and rewritten as 5 by migrateRoute, which measures what is missing, or the next write):
+//   format_version: 5
 //   feature_type: sift | orb | akaze | surf
 //   camera: {width, height, fx, fy, cx, cy, distortion_model, distortion: [..]}
 //   camera_mount: {x, y, yaw}            # camera optical centre in base_link [m, rad]
@@ -25,6 +25,10 @@
 //                                                         # transfer error about their homography [px]
 //        tilt_to_next: {pitch: 0.003, roll: -0.001},      # optional: the next keyframe's camera tilt
 //                                                         # relative to this one's [rad] (teach)
+//        plane_uncertainty: {normal_rad: 0.02,            # optional, with a plane: its error as its
+//                            distance: 0.03,              # neighbours measured it (teach; below)
+//                            pivot: [x, y, z],
+//                            fix_error_per_m2: [9 numbers]},
 //        experiences:                                     # optional: other views of this place
 //          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
 //             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
@@ -35,6 +39,7 @@
 // Loading validates everything and names the file and the problem on any error.
 #pragma once
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include <cmath>
@@ -51,7 +56,7 @@
 
 namespace homography_teach_repeat {
 
-constexpr int kRouteFormatVersion = 4;
+constexpr int kRouteFormatVersion = 5;
 
 // How closely a keyframe's features match the next keyframe's about their homography, measured by
 // the teach run (teach_session.h, measureRouteNoise): the pixel noise of this camera, lens and
@@ -89,6 +94,26 @@ struct RouteExperience {
   std::optional<PairTilt> tilt_to_next;
 };
 
+// A keyframe's plane error as its neighbours measured it (KeyframeStore, docs/math.md §3.6, §3.10;
+// docs/route_format.md, "Measured noise"): measured by the teach run (measurePlaneUncertainty,
+// teach_session.h) so that the repeat reads it instead of measuring it at every start.
+struct PlaneUncertainty {
+  double normal_sigma_rad = 0.0;  // std of the normal's direction [rad, 0-0.5], turning about pivot
+  double distance_sigma = 0.0;    // std of the distance along the normal at pivot [fraction, 0-0.5]
+  // The centroid of the keyframe's plane features on its plane [m, keyframe camera frame]; absent:
+  // the plane's point nearest the camera.
+  std::optional<Eigen::Vector3d> pivot;
+  // The error of a fix against the keyframe per metre of the camera's displacement, E[e eᵀ / d²]
+  // over its neighbours' images relocalized against it (camera frame (x, z, θ) [1, 1, rad² per
+  // m²], symmetric, non-negative diagonal); absent where no neighbour measured it.
+  std::optional<Eigen::Matrix3d> fix_error_per_m2;
+  // kInvalidInput saying which value is non-finite or out of range.
+  Status validate() const;
+  // Whether it was measured with `plane`: its pivot (where it has one) lies on it (to 1e-9 of the
+  // distance). A plane changed after the measurement leaves it stale.
+  bool liesOn(const ScenePlane& plane) const;
+};
+
 struct RouteKeyframe {
   int index = 0;
   double stamp = 0.0;  // [s]
@@ -99,6 +124,7 @@ struct RouteKeyframe {
   std::optional<ScenePlane> plane;  // dominant plane in this keyframe's camera frame
   std::optional<MatchResidual> match_residual;  // absent: not measured, or the pair did not register
   std::optional<PairTilt> tilt_to_next;  // absent: not measured, or the pair did not show it (no baseline)
+  std::optional<PlaneUncertainty> plane_uncertainty;  // only with a plane; absent: not measured (format 1-4)
   std::vector<RouteExperience> experiences;
 };
 
@@ -130,6 +156,14 @@ std::optional<double> routeMatchResidual(const Route& route);
 // a corner whose homography mixes two surfaces does not set it); nullopt when not measured or no
 // pair has one.
 std::optional<double> routeTiltSigma(const Route& route);
+
+// Whether a keyframe with a plane lacks its plane_uncertainty, or has one measured with another
+// plane (PlaneUncertainty::liesOn): a route of format 1-4, one whose teach run could not measure
+// it, one whose planes were changed in memory. migrateRoute measures it.
+bool planeUncertaintyMissing(const Route& route);
+// Whether the route has planes and none misses its plane_uncertainty: the repeat then reads them
+// (KeyframeStore::load), otherwise it measures them all at load.
+bool planeUncertaintyStored(const Route& route);
 
 // Where a keyframe's or experience's file is: `file` as is when it is absolute (a route composed
 // along a path through a map of routes, network/path_route.h, names files of several routes),
@@ -168,9 +202,14 @@ class RouteWriter {
   Status setMeasuredNoise(const std::vector<std::optional<MatchResidual>>& residuals,
                           const std::vector<std::optional<PairTilt>>& tilts);
 
-  // Sets the plane of each keyframe (size must match) and the scale; rewrites the index.
+  // Sets the plane of each keyframe (size must match) and the scale, clearing what was measured of
+  // the planes before; rewrites the index.
   Status setPlanes(const std::vector<std::optional<ScenePlane>>& planes,
                    double first_plane_distance);
+
+  // Sets each keyframe's plane_uncertainty (size must match; only where the keyframe has a plane,
+  // each valid: PlaneUncertainty::validate, naming the keyframe); rewrites the index.
+  Status setPlaneUncertainties(const std::vector<std::optional<PlaneUncertainty>>& uncertainties);
 
   const Route& route() const { return route_; }
 

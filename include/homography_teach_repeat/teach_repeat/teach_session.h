@@ -2,8 +2,8 @@
 // features, vertical lines, odometry pose) in a crash-safe route, and at the end estimates the
 // scene planes along the keyframes (docs/math.md §2, plane_estimation.h) from the odometry (or the
 // user-given distance of the first plane) and measures the match noise and the camera's tilt
-// between the route's own images (docs/route_format.md, "Measured noise"), writing both into the
-// route. teach_node is a thin
+// between the route's own images and each plane's uncertainty from its neighbours
+// (docs/route_format.md, "Measured noise"), writing them into the route. teach_node is a thin
 // wrapper around this.
 #pragma once
 
@@ -20,6 +20,7 @@
 #include "homography_teach_repeat/geometry/planar_pose.h"
 #include "homography_teach_repeat/homography/image_registration.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
+#include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 #include "homography_teach_repeat/teach_repeat/route.h"
 #include "homography_teach_repeat/common/status.h"
 #include "homography_teach_repeat/features/vertical_lines.h"
@@ -68,6 +69,10 @@ struct TeachOptions {
   // face the first leg take the first keyframe's wall (OdometryPlaneOptions::closing_motion). The
   // same test as the repeat's and the controller's closed_route_gap.
   double closed_route_gap = 1.0;
+  // The repeat's options with which finish() measures the planes' uncertainty from the route's own
+  // keyframes (measurePlaneUncertainty): the repeat's defaults on a robot; an evaluation passes the
+  // options its repeat runs with.
+  RepeatOptions plane_measurement;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -102,7 +107,9 @@ class TeachSession {
   // matches, robust estimator), docs/math.md §2 along the route with the odometry motion breaking the
   // β ≈ 0 tie; keyframes after a failed pair get no plane. The same pairs' inlier residuals are the
   // keyframes' match residuals (matchResidualOf), and their tilts the keyframes' tilt to the next
-  // (pairTiltOf). Writes the route index.
+  // (pairTiltOf). Then each plane's uncertainty from its neighbours (measurePlaneUncertainty with
+  // TeachOptions::plane_measurement; a failure there is a message of the report, the route keeps
+  // its planes). Writes the route index.
   Expected<PlaneEstimationReport> finish();
 
   const Route& route() const { return writer_->route(); }
@@ -159,10 +166,17 @@ PairMeasurement measureViewPair(const ImageFeatures& first, const ImageFeatures&
 // not written). kInvalidInput for a missing or corrupt features file.
 Status measureRouteNoise(Route& route, const MatchOptions& matching = {}, const RobustHomographyOptions& robust = {});
 
-// Rewrites a route's index in the current format (4): a route of version 1 to 3 keeps its
+// Measures each plane's uncertainty from the route's stored keyframes as the repeat would at load
+// (KeyframeStore, fast_hd with `options` and the route's measured noise, withMeasuredNoise): the
+// neighbours' planes compared with it and its neighbours' images relocalized against it (docs/math.md
+// §3.6, §3.10); sets every keyframe's plane_uncertainty (absent without a plane; not written).
+// kInvalidInput for invalid options or a missing or corrupt features file.
+Status measurePlaneUncertainty(Route& route, const RepeatOptions& options = {});
+
+// Rewrites a route's index in the current format (5): a route of version 1 to 4 keeps its
 // keyframes and experiences and has what it lacks measured (measureRouteNoise with the teach
-// defaults). Atomic; the keyframe files are untouched. kInvalidInput naming the file when the
-// route cannot be read, measured or written.
+// defaults, then measurePlaneUncertainty with the repeat's). Atomic; the keyframe files are
+// untouched. kInvalidInput naming the file when the route cannot be read, measured or written.
 Status migrateRoute(const std::string& directory);
 
 }  // namespace homography_teach_repeat

@@ -101,8 +101,8 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
   // its vote's support against the next keyframe.
   std::vector<ShiftHeadingAudit> shift;
   if (shift_heading) shift = auditShiftHeading(route, PinholeCamera(route.info.camera));
-  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s %11s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
-              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "shift f/vote", "weak");
+  std::printf("%4s %8s %8s %6s %6s %10s %10s %9s %6s %6s %9s %12s %11s  %s\n", "kf", "x [m]", "y [m]", "feat", "plane",
+              "sigma [m]", "sigma [deg]", "alias", "lines", "lmarks", "plane [m]", "plane sd °/%", "shift f/vote", "weak");
   for (const KeyframeAudit& a : audit->keyframes) {
     double position = NAN, heading = NAN;
     if (a.predicted_covariance) {
@@ -118,9 +118,14 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
       const ShiftHeadingAudit& h = shift[static_cast<std::size_t>(a.keyframe)];
       seasonal = std::to_string(h.features) + "/" + std::to_string(h.support) + (h.ambiguous ? "?" : "");
     }
-    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f %11s  %s\n", a.keyframe, a.pose.x, a.pose.y,
-                a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
-                a.has_plane ? a.plane_distance_m : NAN, seasonal.c_str(), weak.c_str());
+    char plane_sd[32] = "-";  // the plane's normal [deg] and distance [%] std, from its neighbours
+    if (a.has_plane && (a.plane_normal_sigma_rad > 0.0 || a.plane_distance_sigma > 0.0)) {
+      std::snprintf(plane_sd, sizeof(plane_sd), "%.2f/%.1f", a.plane_normal_sigma_rad * 180.0 / M_PI,
+                    100.0 * a.plane_distance_sigma);
+    }
+    std::printf("%4d %8.2f %8.2f %6d %6d %10.4f %10.3f %9s %6d %6d %9.2f %12s %11s  %s\n", a.keyframe, a.pose.x,
+                a.pose.y, a.features, a.plane_features, position, heading, alias.c_str(), a.lines, a.line_landmarks,
+                a.has_plane ? a.plane_distance_m : NAN, plane_sd, seasonal.c_str(), weak.c_str());
   }
   for (const auto& note : audit->notes) std::printf("note: %s\n", note.c_str());
   std::printf("match noise: %s\n", describeMeasuredNoise(options.repeat, route).c_str());
@@ -130,6 +135,10 @@ int auditOneRoute(const Route& route, const RouteAuditOptions& options, bool shi
   nlohmann::json document;
   document["kind"] = "route_audit";
   document["route"] = route.directory;
+  document["format_version"] = route.loaded_format_version;
+  // Where the keyframes' plane_normal_sigma_rad, plane_distance_sigma and neighbour_fix_error_per_m
+  // come from: the route (its teach run's or a migration's measurement) or measured by this load.
+  document["plane_uncertainty"] = planeUncertaintyStored(route) ? "stored" : planeUncertaintyMissing(route) ? "measured at load" : "none";
   const RepeatOptions used = withMeasuredNoise(options.repeat, route);
   document["setup"] = {{"probe_offset_m", options.probe_offset_m}, {"aliasing", options.aliasing},
                        {"pixel_sigma", used.pose.pixel_sigma_px},
