@@ -10,7 +10,8 @@
 // median_ms, p95_ms and max_ms of the frames. Its _camera cases hand the frames over at 30 Hz, as a
 // camera does to a node that takes the newest image (the time between frames is the worker's for
 // RepeatOptions::background_detection; without pacing the worker has only the other frames' time);
-// _no_background detects in the frame that needs the features.
+// _no_background detects in the frame that needs the features. BM_RepeatStart is the pipeline's
+// creation with the route's stored plane uncertainty and with it measured at load.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -224,6 +225,32 @@ BENCHMARK_CAPTURE(BM_RepeatFrames, Hybrid_SIFT, false, false, true)
     ->UseManualTime()->Iterations(40)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_RepeatFrames, Hybrid_SIFT_seasonal_camera, true, true, true)
     ->UseManualTime()->Iterations(40)->Unit(benchmark::kMillisecond);
+
+// The repeat's start: RepeatPipeline::create at the defaults (hybrid) on the synthetic SIFT route
+// (16 keyframes), reading each plane's uncertainty as the teach run stored it (format 5), or
+// measuring it at load as for a route of format 4 (the neighbours' planes compared and their images
+// relocalized against each keyframe; docs/route_format.md, "Measured noise").
+void BM_RepeatStart(benchmark::State& state, bool stored) {
+  auto route = htr::loadRoute(fixture().route(htr::FeatureType::kSift));
+  if (!route || !htr::planeUncertaintyStored(*route)) {
+    state.SkipWithError(route ? "the synthetic route stores no plane uncertainty" : route.status().toString().c_str());
+    return;
+  }
+  if (!stored) {
+    for (htr::RouteKeyframe& keyframe : route->keyframes) keyframe.plane_uncertainty.reset();
+  }
+  for (auto _ : state) {
+    auto pipeline = htr::RepeatPipeline::create(*route, htr::RepeatPipelineOptions());
+    if (!pipeline) {
+      state.SkipWithError(pipeline.status().toString().c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(pipeline);
+  }
+}
+BENCHMARK_CAPTURE(BM_RepeatStart, stored, true)->Unit(benchmark::kMillisecond)->Repetitions(3)->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(BM_RepeatStart, measured_at_load, false)
+    ->Unit(benchmark::kMillisecond)->Repetitions(3)->ReportAggregatesOnly(true);
 
 // The matching step alone, up to 1500 x 1500 features on two frames of the synthetic wall: ours
 // (one distance matrix: popcount for ORB, cv::batchDistance rows for SIFT; ratio test + mutual

@@ -43,6 +43,15 @@ ValidRoute makeRoute() {
     const auto status = writer->addKeyframe(image, features, *lines, htr::Pose2D(0.5 * k, 0.0, 0.0), 1.0 + k);
     if (!status.isOk()) throw std::runtime_error(status.toString());
   }
+  // What the teach run measures (docs/route_format.md, "Measured noise"), so that its fields are
+  // in the index the fuzzer mutates.
+  const htr::ScenePlane wall{Eigen::Vector3d::UnitZ(), 3.0};
+  htr::PlaneUncertainty uncertainty{0.02, 0.03, Eigen::Vector3d(0.5, -0.2, 3.0), Eigen::Matrix3d::Identity() * 1e-4};
+  for (const auto& status :
+       {writer->setMeasuredNoise({htr::MatchResidual{0.3, 40}, std::nullopt}, {htr::PairTilt{0.001, -0.002}, std::nullopt}),
+        writer->setPlanes({wall, wall}, 0.0), writer->setPlaneUncertainties({uncertainty, uncertainty})}) {
+    if (!status.isOk()) throw std::runtime_error(status.toString());
+  }
   const htr::RouteKeyframe& first = writer->route().keyframes.at(0);
   for (const std::string& file : {std::string("route.yaml"), first.image_file, first.features_file, first.lines_file}) {
     valid.files.push_back(valid.directory + "/" + file);
