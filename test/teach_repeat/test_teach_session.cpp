@@ -32,6 +32,16 @@ TeachOptions wallTeachOptions(const std::string& dir) {
   options.keyframes.distance = 0.25;
   return options;
 }
+// 16 images 10 cm apart along a gently turning path towards the synthetic wall (six keyframes
+// with wallTeachOptions), offered to `session`.
+void offerAGentleTurnTowardsTheWall(TeachSession& session) {
+  const SyntheticWall scene;
+  for (int step = 0; step <= 15; ++step) {
+    const double s = 0.1 * step;
+    const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
+    ASSERT_TRUE(session.offer(scene.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step).isOk());
+  }
+}
 }  // namespace
 
 // Six keyframes along a gently turning path towards the wall; the planes estimated at the end
@@ -90,12 +100,7 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   EXPECT_TRUE(options.planes_from_odometry);  // no tape measure by default
   auto session = TeachSession::start(options, calibration(), Pose2D(0.0, 0.0, 0.0));
   ASSERT_TRUE(session.isOk()) << session.status().toString();
-  const SyntheticWall scene;
-  for (int step = 0; step <= 15; ++step) {
-    const double s = 0.1 * step;
-    const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
-    ASSERT_TRUE(session->offer(scene.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step).isOk());
-  }
+  ASSERT_NO_FATAL_FAILURE(offerAGentleTurnTowardsTheWall(*session));
   const auto report = session->finish();
   ASSERT_TRUE(report.isOk()) << report.status().toString();
   EXPECT_EQ(report->planes, 6);
@@ -177,12 +182,7 @@ TEST(TeachSession, StoresThePlanesUncertainty) {
   const std::string dir = makeTemporaryDirectory("htr_teach_planes");
   auto session = TeachSession::start(wallTeachOptions(dir), calibration(), Pose2D(0.0, 0.0, 0.0));
   ASSERT_TRUE(session.isOk()) << session.status().toString();
-  const SyntheticWall scene;
-  for (int step = 0; step <= 15; ++step) {
-    const double s = 0.1 * step;
-    const PlanarPose camera_pose(0.08 * s, s, 0.04 * s);
-    ASSERT_TRUE(session->offer(scene.imageAt(camera_pose), cameraAxesToRep103(camera_pose), 10.0 + step).isOk());
-  }
+  ASSERT_NO_FATAL_FAILURE(offerAGentleTurnTowardsTheWall(*session));
   const auto report = session->finish();
   ASSERT_TRUE(report.isOk()) << report.status().toString();
   EXPECT_TRUE(report->messages.empty()) << report->messages.front();
