@@ -291,7 +291,7 @@ Status migrateRoute(const std::string& directory) {
     if (!measured.isOk()) return measured;
   }
   if (planeUncertaintyMissing(*route)) {
-    const Status measured = measurePlaneUncertainty(*route);
+    Status measured = measurePlaneUncertainty(*route);
     if (!measured.isOk()) return measured;
   }
   return writeRouteIndex(*route);
