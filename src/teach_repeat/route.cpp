@@ -165,6 +165,7 @@ Status RouteWriter::setPlaneUncertainties(const std::vector<std::optional<PlaneU
     if (!valid.isOk()) return Status(StatusCode::kInvalidInput, keyframe + ": " + valid.message());
   }
   for (std::size_t k = 0; k < uncertainties.size(); ++k) route_.keyframes[k].plane_uncertainty = uncertainties[k];
+  route_.info.plane_uncertainty_method = kPlaneUncertaintyMethod;
   return writeIndex();
 }
 
@@ -190,8 +191,9 @@ bool PlaneUncertainty::liesOn(const ScenePlane& plane) const {
 }
 
 bool planeUncertaintyMissing(const Route& route) {
+  const bool current = route.info.plane_uncertainty_method == kPlaneUncertaintyMethod;
   for (const RouteKeyframe& k : route.keyframes) {
-    if (k.plane && !(k.plane_uncertainty && k.plane_uncertainty->liesOn(*k.plane))) return true;
+    if (k.plane && !(current && k.plane_uncertainty && k.plane_uncertainty->liesOn(*k.plane))) return true;
   }
   return false;
 }
@@ -293,6 +295,9 @@ Status writeRouteIndex(const Route& route) {
     if (info.tilt_measured) out << YAML::Key << "tilt_rad" << YAML::Value << routeTiltSigma(route).value_or(0.0);
     out << YAML::EndMap;
   }
+  const bool any_uncertainty = std::any_of(route.keyframes.begin(), route.keyframes.end(),
+                                           [](const RouteKeyframe& k) { return k.plane_uncertainty.has_value(); });
+  if (any_uncertainty) out << YAML::Key << "plane_uncertainty_method" << YAML::Value << info.plane_uncertainty_method;
   out << YAML::Key << "keyframes" << YAML::Value << YAML::BeginSeq;
   for (const auto& k : route.keyframes) {
     out << YAML::BeginMap;
@@ -406,6 +411,11 @@ Expected<Route> loadRoute(const std::string& directory) {
         route.info.tilt_measured = true;
       }
     }
+    if (root["plane_uncertainty_method"]) {
+      if (version < 5) throw reader.error(root, "'plane_uncertainty_method' needs format_version 5");
+      route.info.plane_uncertainty_method = reader.get<int>(root, "plane_uncertainty_method");
+      if (route.info.plane_uncertainty_method < 1) throw reader.error(root, "plane_uncertainty_method must be >= 1");
+    }
     const YAML::Node keyframes = root["keyframes"];
     if (!keyframes || !keyframes.IsSequence()) throw reader.error(root, "missing list 'keyframes'");
     for (const auto& node : keyframes) {
@@ -438,6 +448,9 @@ Expected<Route> loadRoute(const std::string& directory) {
       readPairMeasurement(reader, node, "keyframe " + std::to_string(k.index), version, &k.match_residual,
                           &k.tilt_to_next);
       k.plane_uncertainty = readPlaneUncertainty(reader, node, "keyframe " + std::to_string(k.index), version, k.plane);
+      if (k.plane_uncertainty && route.info.plane_uncertainty_method == 0) {
+        throw reader.error(node, "keyframe " + std::to_string(k.index) + ": plane_uncertainty without the route's plane_uncertainty_method");
+      }
       if (const YAML::Node experiences = node["experiences"]) {
         if (version < 2) throw reader.error(experiences, "'experiences' needs format_version 2");
         if (!experiences.IsSequence()) throw reader.error(experiences, "'experiences' must be a list");

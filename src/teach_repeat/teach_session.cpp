@@ -280,6 +280,7 @@ Status measurePlaneUncertainty(Route& route, const RepeatOptions& options) {
   const auto store = KeyframeStore::load(unmeasured, measuring);
   if (!store) return store.status();
   for (int k = 0; k < store->size(); ++k) route.keyframes[static_cast<std::size_t>(k)].plane_uncertainty = store->planeUncertainty(k);
+  route.info.plane_uncertainty_method = kPlaneUncertaintyMethod;
   return Status::ok();
 }
 

@@ -444,6 +444,8 @@ TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
   EXPECT_TRUE(planeUncertaintyMissing(*route));  // keyframe 2's
   EXPECT_FALSE(planeUncertaintyStored(*route));
   route->keyframes[2].plane.reset();
+  EXPECT_FALSE(planeUncertaintyStored(*route));  // no method: as by no build
+  route->info.plane_uncertainty_method = kPlaneUncertaintyMethod;
   EXPECT_TRUE(planeUncertaintyStored(*route));
   ASSERT_TRUE(writeRouteIndex(*route).isOk());
   const auto loaded = loadRoute(dir);
@@ -476,10 +478,26 @@ TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
                      {"{normal_rad: 0.125, distance: 0.25, fix_error_per_m2: [1, 0, 0, 0, 1, 0, 0, 0, -1]}", "negative"},
                      {"{normal_rad: 0.125}", "distance"},
                      {"{normal_rad: 0.125, distance: 0.25, pivot: [0, 0, 3]}", "pivot is not on the keyframe's plane"}});
+  // Measured by a build whose measurement differed: read, but measured again (missing).
+  std::string other_method = *index;
+  const std::string method_line = "plane_uncertainty_method: " + std::to_string(kPlaneUncertaintyMethod);
+  ASSERT_NE(other_method.find(method_line), std::string::npos) << other_method;
+  other_method.replace(other_method.find(method_line), method_line.size(), "plane_uncertainty_method: 99");
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", other_method).isOk());
+  const auto measured_otherwise = loadRoute(dir);
+  ASSERT_TRUE(measured_otherwise.isOk()) << measured_otherwise.status().toString();
+  EXPECT_TRUE(planeUncertaintyMissing(*measured_otherwise));
+  std::string without_method = *index;
+  without_method.erase(without_method.find(method_line), method_line.size() + 1);
+  ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", without_method).isOk());
+  auto refused = loadRoute(dir);
+  ASSERT_FALSE(refused.isOk());
+  EXPECT_NE(refused.status().message().find("keyframe 0: plane_uncertainty without the route's plane_uncertainty_method"),
+            std::string::npos) << refused.status().message();
   std::string older = *index;
   older.replace(older.find("format_version: 5"), 17, "format_version: 4");
   ASSERT_TRUE(writeFileAtomically(dir + "/route.yaml", older).isOk());
-  auto refused = loadRoute(dir);
+  refused = loadRoute(dir);
   ASSERT_FALSE(refused.isOk());
   EXPECT_NE(refused.status().message().find("format_version 5"), std::string::npos) << refused.status().message();
   Route asymmetric = *loaded;

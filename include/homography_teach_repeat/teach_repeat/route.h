@@ -16,6 +16,7 @@
 //   measured_noise: {match_residual_px: 0.30,  # the keyframes' median match residual (below);
 //                    tilt_rad: 0.004}    # the std of the keyframe pairs' relative tilt (below);
 //                                        # absent: not measured (format 1-2; tilt_rad: 1-3)
+//   plane_uncertainty_method: 1          # kPlaneUncertaintyMethod of the keyframes' plane_uncertainty
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
@@ -57,6 +58,11 @@
 namespace homography_teach_repeat {
 
 constexpr int kRouteFormatVersion = 5;
+// The version of the planes' uncertainty measurement (KeyframeStore's measurePlaneAgreement and
+// measureNeighbourFixes), stored with the values: raised whenever that measurement changes, so that
+// a route measured by an older build is measured again (at load, and by route_info --migrate)
+// rather than read.
+constexpr int kPlaneUncertaintyMethod = 1;
 
 // How closely a keyframe's features match the next keyframe's about their homography, measured by
 // the teach run (teach_session.h, measureRouteNoise): the pixel noise of this camera, lens and
@@ -139,6 +145,8 @@ struct RouteInfo {
   // Whether the keyframe pairs' tilts were measured (format 4); false for an older route, whose
   // repeat falls back to the configured tilt_sigma.
   bool tilt_measured = false;
+  // kPlaneUncertaintyMethod of the keyframes' stored plane_uncertainty (format 5); 0: none stored.
+  int plane_uncertainty_method = 0;
 };
 
 struct Route {
@@ -158,8 +166,9 @@ std::optional<double> routeMatchResidual(const Route& route);
 std::optional<double> routeTiltSigma(const Route& route);
 
 // Whether a keyframe with a plane lacks its plane_uncertainty, or has one measured with another
-// plane (PlaneUncertainty::liesOn): a route of format 1-4, one whose teach run could not measure
-// it, one whose planes were changed in memory. migrateRoute measures it.
+// plane (PlaneUncertainty::liesOn) or by another method (RouteInfo::plane_uncertainty_method): a
+// route of format 1-4, one whose teach run could not measure it, one whose planes were changed in
+// memory, one measured by a build whose measurement differed. migrateRoute measures it.
 bool planeUncertaintyMissing(const Route& route);
 // Whether the route has planes and none misses its plane_uncertainty: the repeat then reads them
 // (KeyframeStore::load), otherwise it measures them all at load.

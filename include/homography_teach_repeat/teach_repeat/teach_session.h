@@ -169,7 +169,8 @@ Status measureRouteNoise(Route& route, const MatchOptions& matching = {}, const 
 // Measures each plane's uncertainty from the route's stored keyframes as the repeat would at load
 // (KeyframeStore, fast_hd with `options` and the route's measured noise, withMeasuredNoise): the
 // neighbours' planes compared with it and its neighbours' images relocalized against it (docs/math.md
-// §3.6, §3.10); sets every keyframe's plane_uncertainty (absent without a plane; not written).
+// §3.6, §3.10); sets every keyframe's plane_uncertainty (absent without a plane) and the route's
+// plane_uncertainty_method (kPlaneUncertaintyMethod); not written.
 // kInvalidInput for invalid options or a missing or corrupt features file.
 Status measurePlaneUncertainty(Route& route, const RepeatOptions& options = {});
 
