@@ -95,6 +95,10 @@ std::string describeOne(const char* what, double used, const char* unit, const c
 }
 }  // namespace
 
+bool routeMeasurementsMissing(const Route& route) {
+  return !route.info.match_noise_measured || !route.info.tilt_measured || planeUncertaintyMissing(route);
+}
+
 std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route) {
   const RepeatOptions used = withMeasuredNoise(options, route);
   std::string text = describeOne("pixel sigma", used.pose.pixel_sigma_px, "px", "match_residual_gain",
@@ -103,13 +107,12 @@ std::string describeMeasuredNoise(const RepeatOptions& options, const Route& rou
   text += "; " + describeOne("tilt sigma", used.pose.tilt_sigma_rad, "rad", "measured_tilt_gain",
                              options.measured_tilt_gain, routeTiltSigma(route), "tilt", route.info.tilt_measured,
                              "tilt_sigma");
-  const bool planes_unmeasured = planeUncertaintyMissing(route);
   if (options.plane_sigma_from_neighbours && planeUncertaintyStored(route)) {
     text += "; the planes' uncertainty as the route stores it";
-  } else if (options.plane_sigma_from_neighbours && planes_unmeasured) {
+  } else if (options.plane_sigma_from_neighbours && planeUncertaintyMissing(route)) {
     text += "; the planes' uncertainty measured at load (the route does not store it)";
   }
-  if (!route.info.match_noise_measured || !route.info.tilt_measured || planes_unmeasured) {
+  if (routeMeasurementsMissing(route)) {
     text += " (format " + std::to_string(route.loaded_format_version) +
             "; 'rosrun homography_teach_repeat route_info --migrate " + route.directory + "' measures it)";
   }

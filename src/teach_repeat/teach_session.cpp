@@ -268,10 +268,7 @@ Status measureRouteNoise(Route& route, const MatchOptions& matching, const Robus
 
 Status measurePlaneUncertainty(Route& route, const RepeatOptions& options) {
   Route unmeasured = route;  // the store reads stored values: this measures afresh
-  for (RouteKeyframe& keyframe : unmeasured.keyframes) {
-    keyframe.plane_uncertainty.reset();
-    keyframe.experiences.clear();
-  }
+  for (RouteKeyframe& keyframe : unmeasured.keyframes) keyframe.plane_uncertainty.reset();
   RepeatOptions measuring = withMeasuredNoise(options, route);
   measuring.mode = RepeatMode::kFastHd;
   measuring.require_planes = false;

@@ -192,5 +192,8 @@ RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route);
 // (the route's measurement and the gain; the gain 0; or a route that was not measured, with how to
 // measure it), and whether the planes' uncertainty is read from the route or measured at load.
 std::string describeMeasuredNoise(const RepeatOptions& options, const Route& route);
+// Whether the route lacks a measurement this build's teach run makes (the match noise, the tilt, a
+// plane's uncertainty): describeMeasuredNoise then names `route_info --migrate`, which measures it.
+bool routeMeasurementsMissing(const Route& route);
 
 }  // namespace homography_teach_repeat

@@ -206,8 +206,8 @@ class RouteWriter {
 
   // Sets each keyframe's match residual and tilt to the next keyframe (sizes must match; finite rms
   // > 0 and >= 4 inliers, finite tilts within ±kMaxPairTilt where present) and marks the route's
-  // noise and tilt measured; written with the next index write (setPlanes, addKeyframe), so the
-  // teach run's ~finish writes its index once.
+  // noise and tilt measured; written with the next index write (setPlanes, addKeyframe): the
+  // teach run's ~finish writes its index with its planes, then with their uncertainty.
   Status setMeasuredNoise(const std::vector<std::optional<MatchResidual>>& residuals,
                           const std::vector<std::optional<PairTilt>>& tilts);
 

@@ -108,7 +108,7 @@ void RepeatNode::startRoute(const std::string& directory, const RepeatPipelineOp
   const auto route = loadRoute(directory);
   if (!route) throw std::runtime_error(route.status().message());
   taught_camera_to_level_ = route->info.camera.camera_to_level;
-  if (route->info.match_noise_measured && route->info.tilt_measured && !planeUncertaintyMissing(*route)) {
+  if (!routeMeasurementsMissing(*route)) {
     ROS_INFO("repeat_node: %s", describeMeasuredNoise(options.localization, *route).c_str());
   } else {
     ROS_WARN("repeat_node: %s", describeMeasuredNoise(options.localization, *route).c_str());
