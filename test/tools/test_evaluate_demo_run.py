@@ -6,8 +6,10 @@ interpolated, with the NEES of the published covariance.
 
   test_evaluate_demo_run.py EVALUATE_DEMO_RUN WORLD ROUTE_DIR WORK_DIR
 
-Writes two bags of ground truth and controller state (a lap round the route's keyframes that
-finished; a robot that waited at the start) and checks the exit codes (0 and 3) and metrics.
+Writes bags of ground truth and controller state (a lap round the route's keyframes that
+finished; the same with each frame's keyframe, one keyframe's poses claiming a tenth of their
+variance; a robot that waited at the start) and checks the exit codes (0 and 3) and metrics: the
+scores per keyframe, and the summary naming the keyframe that claims too little.
 """
 import json
 import math
@@ -19,6 +21,7 @@ import rosbag
 import rospy
 import yaml
 from geometry_msgs.msg import PoseWithCovarianceStamped
+from homography_teach_repeat.msg import HeadingCorrectionStamped
 from nav_msgs.msg import Odometry
 from std_msgs.msg import String
 
@@ -29,7 +32,9 @@ POSE_OFFSET_X = 0.05
 POSE_COVARIANCE = [0.0025, 0.0025, 1e-4]
 
 
-def write_bag(path, poses, state, with_estimates=False):
+def write_bag(path, poses, state, with_estimates=False, keyframe_of=None, overconfident_keyframe=None):
+    """keyframe_of(i): the keyframe pose i was fixed against (a heading correction with its stamp;
+    None: a failed frame); overconfident_keyframe: whose poses claim a tenth of the variance."""
     with rosbag.Bag(path, 'w') as bag:
         t = rospy.Time(1.0)
         for i, (x, y, yaw) in enumerate(poses):
@@ -46,11 +51,19 @@ def write_bag(path, poses, state, with_estimates=False):
                 e.header.frame_id = 'map'
                 e.pose.pose.position.x, e.pose.pose.position.y = (px + x) / 2 + POSE_OFFSET_X, (py + y) / 2
                 e.pose.pose.orientation.z, e.pose.pose.orientation.w = math.sin(mid_yaw / 2), math.cos(mid_yaw / 2)
+                keyframe = keyframe_of(i) if keyframe_of else None
+                scale = 0.1 if keyframe is not None and keyframe == overconfident_keyframe else 1.0
                 for row, variance in zip((0, 1, 5), POSE_COVARIANCE):
-                    e.pose.covariance[6 * row + row] = variance
+                    e.pose.covariance[6 * row + row] = scale * variance
                 for row in (2, 3, 4):
                     e.pose.covariance[6 * row + row] = 1e6  # unobserved: z, roll, pitch
                 bag.write('repeat_node/pose', e, t)
+                if keyframe_of:
+                    c = HeadingCorrectionStamped()
+                    c.header.stamp = e.header.stamp
+                    c.ok = keyframe is not None
+                    c.reference_index = keyframe if keyframe is not None else -1
+                    bag.write('repeat_node/heading_correction', c, t)
             t += rospy.Duration(0.1)
         bag.write('controller_node/state', String(data=state), t)
 
@@ -88,6 +101,34 @@ def main():
             or localization['heading_err_rms_deg'] > 1e-6):
         failures.append('published poses 0.05 m off at a 0.05 m sigma, between two ground-truth samples: %s'
                         % localization)
+
+    if localization is not None and localization.get('by_keyframe', 'absent') is not None:
+        failures.append('a bag without heading corrections: by_keyframe %s, not null' % localization.get('by_keyframe'))
+
+    # Each pose fixed against the keyframe its lap segment starts at (10 poses each; the first has 9,
+    # pose 0 having no estimate), pose 25 a failed frame (no keyframe), keyframe 1's poses claiming
+    # a tenth of their variance (NEES 10 each).
+    keyframe_of = lambda i: None if i == 25 else (i // 10) % len(path)
+    write_bag(os.path.join(work, 'by_keyframe.bag'), lap, 'finished: end of the route', with_estimates=True,
+              keyframe_of=keyframe_of, overconfident_keyframe=1)
+    code, metrics, stdout = evaluate(program, world, route, os.path.join(work, 'by_keyframe.bag'),
+                                     os.path.join(work, 'by_keyframe'))
+    by_keyframe = (metrics['localization'] or {}).get('by_keyframe') or []
+    expected = {}
+    for i in range(1, len(lap)):
+        if keyframe_of(i) is not None:
+            expected[keyframe_of(i)] = expected.get(keyframe_of(i), 0) + 1
+    scored = {k['keyframe']: k for k in by_keyframe}
+    if code != 0 or sorted(scored) != sorted(expected) or any(scored[k]['poses'] != n for k, n in expected.items()):
+        failures.append('poses by keyframe: exit %d, %s, expected counts %s' % (code, by_keyframe, expected))
+    else:
+        for k, entry in scored.items():
+            want = 10.0 if k == 1 else 1.0
+            if abs(entry['nees_mean'] - want) > 1e-6:
+                failures.append('keyframe %d: NEES mean %s, expected %s' % (k, entry['nees_mean'], want))
+    named = 'claim too little (NEES mean above 6 over 10 or more poses): 1 (10.0 over 10)'
+    if named not in stdout:
+        failures.append('the summary does not name keyframe 1 as claiming too little: %r' % stdout[-400:])
 
     write_bag(os.path.join(work, 'waited.bag'), [path[0]] * 50, 'waiting: no localization yet')
     code, metrics, stdout = evaluate(program, world, route, os.path.join(work, 'waited.bag'), os.path.join(work, 'waited'))

@@ -25,7 +25,12 @@
 // truth at the pose's stamp (interpolated), and whether its covariance is honest
 // (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
 // "heading_sigma_rms_deg", "nees_mean", "nees_median", "nees_fraction_above_chi2_95",
-// "unscored_poses", "integrity"}; null when the bag has no pose. "integrity": whether repeat_node's
+// "unscored_poses", "integrity", "by_keyframe"}; null when the bag has no pose. "by_keyframe": the
+// same scores per keyframe the pose was fixed against (repeat_node/heading_correction of the same
+// frame: reference_index), [{"keyframe", "poses", "nees_mean", "nees_fraction_above_chi2_95"}], by
+// keyframe; null without heading corrections. A covariance whose mean is honest can still claim too
+// little at a few keyframes and too much at the rest (docs/evaluation.md, "Simulator: closed-loop
+// repeat"): the summary names the keyframes whose poses' NEES mean is above 6 over 10 or more poses. "integrity": whether repeat_node's
 // ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m or 5° wrong ("detection") and how
 // many right ones it flagged ("false_alarm"), with the counts; null without integrity reports. The route's frame (map) is taken as the world's,
 // as for the path errors: the teach phase runs on drift-free odometry.
@@ -47,8 +52,10 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <string>
 #include <vector>
 
+#include "homography_teach_repeat/HeadingCorrectionStamped.h"
 #include "homography_teach_repeat/Integrity.h"
 #include "homography_teach_repeat/common/command_line.h"
 #include "homography_teach_repeat/ros/conversions.h"
@@ -73,6 +80,7 @@ struct Run {
   std::vector<double> truth_stamps;
   std::vector<StampedEstimate> estimates;  // repeat_node/pose
   std::map<double, int> integrity;         // repeat_node/integrity: level by stamp
+  std::map<double, int> keyframe;          // repeat_node/heading_correction: the frame's keyframe by stamp
   std::string last_state;
   // planar_world_sim's `people` markers: per stamp, each body's pose and footprint (depth, width).
   struct Body {
@@ -158,7 +166,8 @@ Run readRun(const std::string& path) {
   rosbag::Bag bag(path, rosbag::bagmode::Read);
   rosbag::View view(bag, rosbag::TopicQuery({"ground_truth", "/ground_truth", "controller_node/state",
                                              "/controller_node/state", "repeat_node/pose", "/repeat_node/pose",
-                                             "repeat_node/integrity", "/repeat_node/integrity", "people", "/people"}));
+                                             "repeat_node/integrity", "/repeat_node/integrity", "people", "/people",
+                                             "repeat_node/heading_correction", "/repeat_node/heading_correction"}));
   for (const rosbag::MessageInstance& m : view) {
     if (const auto odom = m.instantiate<nav_msgs::Odometry>()) {
       // A message that is not a planar pose (NaN, non-unit quaternion) is left out.
@@ -166,6 +175,10 @@ Run readRun(const std::string& path) {
       if (!truth) continue;
       run.truth.push_back(*truth);
       run.truth_stamps.push_back(odom->header.stamp.toSec());
+    } else if (const auto correction = m.instantiate<htr::HeadingCorrectionStamped>()) {
+      if (correction->ok && correction->reference_index >= 0) {
+        run.keyframe[correction->header.stamp.toSec()] = correction->reference_index;
+      }
     } else if (const auto integrity = m.instantiate<htr::Integrity>()) {
       run.integrity[integrity->header.stamp.toSec()] = integrity->level;
     } else if (const auto markers = m.instantiate<visualization_msgs::MarkerArray>()) {
@@ -234,6 +247,21 @@ nlohmann::json scoreLocalization(const Run& run) {
   }
   const auto summary = consistency.summary();
   if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
+  std::map<int, htr::PoseConsistency> by_keyframe;  // the frame's keyframe: the same stamp
+  for (const StampedEstimate& e : run.estimates) {
+    const auto keyframe = run.keyframe.find(e.stamp);
+    const auto at = truth.poseAt(e.stamp);
+    if (keyframe != run.keyframe.end() && at) (void)by_keyframe[keyframe->second].add(e.pose, e.covariance, *at);
+  }
+  nlohmann::json keyframes = run.keyframe.empty() ? nlohmann::json(nullptr) : nlohmann::json::array();
+  for (const auto& [keyframe, scores] : by_keyframe) {
+    const auto of_keyframe = scores.summary();
+    if (!of_keyframe) continue;
+    keyframes.push_back({{"keyframe", keyframe},
+                         {"poses", of_keyframe->samples},
+                         {"nees_mean", of_keyframe->nees_mean},
+                         {"nees_fraction_above_chi2_95", of_keyframe->fraction_above_chi2_95}});
+  }
   const double deg = 180.0 / M_PI;
   nlohmann::json localization = {{"poses", summary->samples},
           {"position_err_rms_m", summary->position_error_rms},
@@ -245,6 +273,7 @@ nlohmann::json scoreLocalization(const Run& run) {
           {"nees_fraction_above_chi2_95", summary->fraction_above_chi2_95},
           {"unscored_poses", unscored}};
   localization["integrity"] = scoreIntegrity(run, truth);
+  localization["by_keyframe"] = keyframes;
   return localization;
 }
 
@@ -396,6 +425,20 @@ int main(int argc, char** argv) {
                   localization["position_sigma_rms_m"].get<double>(),
                   localization["heading_sigma_rms_deg"].get<double>(), localization["nees_mean"].get<double>(),
                   100.0 * localization["nees_fraction_above_chi2_95"].get<double>());
+      if (localization["by_keyframe"].is_array()) {
+        // Keyframes whose poses claim too little: a mean above 6 over at least 10 poses.
+        std::string claiming_too_little;
+        for (const auto& keyframe : localization["by_keyframe"]) {
+          if (keyframe["poses"].get<std::size_t>() < 10 || !(keyframe["nees_mean"].get<double>() > 6.0)) continue;
+          char entry[96];
+          std::snprintf(entry, sizeof(entry), "%s%d (%.1f over %zu)", claiming_too_little.empty() ? "" : ", ",
+                        keyframe["keyframe"].get<int>(), keyframe["nees_mean"].get<double>(),
+                        keyframe["poses"].get<std::size_t>());
+          claiming_too_little += entry;
+        }
+        std::printf("keyframes whose poses claim too little (NEES mean above 6 over 10 or more poses): %s\n",
+                    claiming_too_little.empty() ? "none" : claiming_too_little.c_str());
+      }
       if (localization["integrity"].is_object()) {
         const auto& integrity = localization["integrity"];
         std::printf("integrity: %zu of %zu wrong poses (> 0.3 m or 5 deg) flagged, %zu of %zu right ones flagged\n",
