@@ -30,8 +30,8 @@
 // frame: reference_index), [{"keyframe", "poses", "nees_mean", "nees_fraction_above_chi2_95"}], by
 // keyframe; null without heading corrections. A covariance whose mean is honest can still claim too
 // little at a few keyframes and too much at the rest (docs/evaluation.md, "Simulator: closed-loop
-// repeat"): the summary names the keyframes whose poses' NEES mean is above 6 over 10 or more poses. "integrity": whether repeat_node's
-// ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m or 5° wrong ("detection") and how
+// repeat"): the summary names the keyframes whose poses' NEES mean is above 6 over 10 or more poses.
+// "integrity": whether repeat_node's ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m or 5° wrong ("detection") and how
 // many right ones it flagged ("false_alarm"), with the counts; null without integrity reports. The route's frame (map) is taken as the world's,
 // as for the path errors: the teach phase runs on drift-free odometry.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -240,19 +240,19 @@ nlohmann::json scoreLocalization(const Run& run) {
   htr::OdometryBuffer truth(std::numeric_limits<double>::max(), 0.5);
   for (std::size_t i = 0; i < run.truth.size(); ++i) truth.add(run.truth_stamps[i], run.truth[i]);
   htr::PoseConsistency consistency;
+  std::map<int, htr::PoseConsistency> by_keyframe;  // the frame's keyframe: its heading correction's stamp
   std::size_t unscored = 0;
   for (const StampedEstimate& e : run.estimates) {
     const auto at = truth.poseAt(e.stamp);
-    if (!at || !consistency.add(e.pose, e.covariance, *at).isOk()) ++unscored;
+    if (!at || !consistency.add(e.pose, e.covariance, *at).isOk()) {
+      ++unscored;
+      continue;
+    }
+    const auto keyframe = run.keyframe.find(e.stamp);
+    if (keyframe != run.keyframe.end()) (void)by_keyframe[keyframe->second].add(e.pose, e.covariance, *at);
   }
   const auto summary = consistency.summary();
   if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
-  std::map<int, htr::PoseConsistency> by_keyframe;  // the frame's keyframe: the same stamp
-  for (const StampedEstimate& e : run.estimates) {
-    const auto keyframe = run.keyframe.find(e.stamp);
-    const auto at = truth.poseAt(e.stamp);
-    if (keyframe != run.keyframe.end() && at) (void)by_keyframe[keyframe->second].add(e.pose, e.covariance, *at);
-  }
   nlohmann::json keyframes = run.keyframe.empty() ? nlohmann::json(nullptr) : nlohmann::json::array();
   for (const auto& [keyframe, scores] : by_keyframe) {
     const auto of_keyframe = scores.summary();
