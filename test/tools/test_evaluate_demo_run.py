@@ -11,6 +11,7 @@ finished; the same with each frame's keyframe, one keyframe's poses claiming a t
 variance; a robot that waited at the start) and checks the exit codes (0 and 3) and metrics: the
 scores per keyframe, and the summary naming the keyframe that claims too little.
 """
+import collections
 import json
 import math
 import os
@@ -114,10 +115,7 @@ def main():
     code, metrics, stdout = evaluate(program, world, route, os.path.join(work, 'by_keyframe.bag'),
                                      os.path.join(work, 'by_keyframe'))
     by_keyframe = (metrics['localization'] or {}).get('by_keyframe') or []
-    expected = {}
-    for i in range(1, len(lap)):
-        if keyframe_of(i) is not None:
-            expected[keyframe_of(i)] = expected.get(keyframe_of(i), 0) + 1
+    expected = collections.Counter(keyframe_of(i) for i in range(1, len(lap)) if keyframe_of(i) is not None)
     scored = {k['keyframe']: k for k in by_keyframe}
     if code != 0 or sorted(scored) != sorted(expected) or any(scored[k]['poses'] != n for k, n in expected.items()):
         failures.append('poses by keyframe: exit %d, %s, expected counts %s' % (code, by_keyframe, expected))

@@ -31,9 +31,10 @@
 // keyframe; null without heading corrections. A covariance whose mean is honest can still claim too
 // little at a few keyframes and too much at the rest (docs/evaluation.md, "Simulator: closed-loop
 // repeat"): the summary names the keyframes whose poses' NEES mean is above 6 over 10 or more poses.
-// "integrity": whether repeat_node's ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m or 5° wrong ("detection") and how
-// many right ones it flagged ("false_alarm"), with the counts; null without integrity reports. The route's frame (map) is taken as the world's,
-// as for the path errors: the teach phase runs on drift-free odometry.
+// "integrity": whether repeat_node's ~integrity flagged (DEGRADED or LOST) the poses more than 0.3 m
+// or 5° wrong ("detection") and how many right ones it flagged ("false_alarm"), with the counts; null
+// without integrity reports. The route's frame (map) is taken as the world's, as for the path errors:
+// the teach phase runs on drift-free odometry.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -68,6 +69,11 @@
 namespace htr = homography_teach_repeat;
 
 namespace {
+
+// The summary names a keyframe as claiming too little when its poses' NEES mean is above this over
+// at least this many poses (a reporting threshold: a keyframe's poses are correlated, no χ² test).
+constexpr double kClaimsTooLittleNees = 6.0;
+constexpr std::size_t kClaimsTooLittlePoses = 10;
 
 struct StampedEstimate {
   double stamp;
@@ -426,17 +432,20 @@ int main(int argc, char** argv) {
                   localization["heading_sigma_rms_deg"].get<double>(), localization["nees_mean"].get<double>(),
                   100.0 * localization["nees_fraction_above_chi2_95"].get<double>());
       if (localization["by_keyframe"].is_array()) {
-        // Keyframes whose poses claim too little: a mean above 6 over at least 10 poses.
         std::string claiming_too_little;
         for (const auto& keyframe : localization["by_keyframe"]) {
-          if (keyframe["poses"].get<std::size_t>() < 10 || !(keyframe["nees_mean"].get<double>() > 6.0)) continue;
+          if (keyframe["poses"].get<std::size_t>() < kClaimsTooLittlePoses ||
+              !(keyframe["nees_mean"].get<double>() > kClaimsTooLittleNees)) {
+            continue;
+          }
           char entry[96];
           std::snprintf(entry, sizeof(entry), "%s%d (%.1f over %zu)", claiming_too_little.empty() ? "" : ", ",
                         keyframe["keyframe"].get<int>(), keyframe["nees_mean"].get<double>(),
                         keyframe["poses"].get<std::size_t>());
           claiming_too_little += entry;
         }
-        std::printf("keyframes whose poses claim too little (NEES mean above 6 over 10 or more poses): %s\n",
+        std::printf("keyframes whose poses claim too little (NEES mean above %g over %zu or more poses): %s\n",
+                    kClaimsTooLittleNees, kClaimsTooLittlePoses,
                     claiming_too_little.empty() ? "none" : claiming_too_little.c_str());
       }
       if (localization["integrity"].is_object()) {
