@@ -264,7 +264,17 @@ PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, Pl
     options.plane_distance_sigma = std::max(options.plane_distance_sigma, reference.plane_distance_sigma);
   }
   options.pixel_sigma_px *= reference.pixel_noise_scale;
+  if (reference.neighbour_fix_error_per_m2 && reference.neighbour_fix_heading_floor_rad) {
+    options.common_shift_sigma_px = 0.0;
+    options.heading_sigma_rad = std::hypot(options.heading_sigma_rad, *reference.neighbour_fix_heading_floor_rad);
+  }
   return options;
+}
+
+double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad) {
+  double sum_of_squares = configured_rad * configured_rad;
+  for (const double intercept : intercepts) sum_of_squares += intercept * intercept;
+  return std::min(std::sqrt(sum_of_squares / static_cast<double>(intercepts.size() + 1)), kLargestHeadingFloorRad);
 }
 
 Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {

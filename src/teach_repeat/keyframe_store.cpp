@@ -1,6 +1,7 @@
 #include "homography_teach_repeat/teach_repeat/keyframe_store.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -54,23 +55,6 @@ void keepAtLeastTheRoutesPlaneVariance(const std::vector<int>& degrees, std::vec
   }
 }
 }  // namespace
-
-double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual) {
-  // Within [0.5, 2]: a corner's pair can see two walls, and its residual says more of that than of
-  // the pixels.
-  constexpr double kSmallest = 0.5;
-  constexpr double kLargest = 2.0;
-  if (!route_residual) return 1.0;
-  double squares = 0.0;
-  int pairs = 0;
-  for (const std::size_t j : {k - 1, k}) {  // (k - 1 wraps for k = 0: out of range)
-    if (j >= route.keyframes.size() || !route.keyframes[j].match_residual) continue;
-    squares += std::pow(route.keyframes[j].match_residual->rms_px, 2);
-    ++pairs;
-  }
-  if (pairs == 0) return 1.0;
-  return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
-}
 
 bool turnedBetween(const Pose2D& a, const Pose2D& b) {
   return std::abs(wrapToPi(b.yaw - a.yaw)) > kTurnKeyframeAngle + kTurnKeyframeRate * std::hypot(b.x - a.x, b.y - a.y);
@@ -130,6 +114,7 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
       store.measurePlaneAgreement(mount, PinholeCamera(route.info.camera));
       store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
     }
+    store.setHeadingFloor(options.pose.common_shift_sigma_px / PinholeCamera(route.info.camera).fx());
     store.plane_uncertainty_known_ = true;
   }
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
@@ -164,6 +149,7 @@ Status KeyframeStore::loadExperiences(const Route& route, const CameraMount& mou
       reference.plane_normal_sigma_rad = keyframe.plane_normal_sigma_rad;
       reference.plane_distance_sigma = keyframe.plane_distance_sigma;
       reference.neighbour_fix_error_per_m2 = keyframe.neighbour_fix_error_per_m2;
+      reference.neighbour_fix_heading_floor_rad = keyframe.neighbour_fix_heading_floor_rad;
       reference.turn = keyframe.turn;
       reference.pixel_noise_scale = keyframe.pixel_noise_scale;
       reference.experience = learned.id;
@@ -328,6 +314,7 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
     if (!reference.plane || !(reference.plane_normal_sigma_rad < kAgreeingPlanes)) continue;
     Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
     int measured = 0;
+    std::array<std::optional<std::pair<double, double>>, 2> heading_error_at;  // (d, e_θ) before, after
     for (const int j : {k - 1, k + 1}) {
       if (j < 0 || j >= n) continue;
       const PlanarPose taught =
@@ -347,8 +334,14 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
       const Eigen::Vector3d e(fix->pose.x - taught.x, fix->pose.z - taught.z, wrapToPi(fix->pose.theta - taught.theta));
       sum += e * e.transpose() / (d * d);
       ++measured;
+      heading_error_at[j > k ? 1 : 0] = std::make_pair(d, e(2));
     }
     if (measured > 0) reference.neighbour_fix_error_per_m2 = Eigen::Matrix3d(sum / measured);
+    if (heading_error_at[0] && heading_error_at[1]) {
+      const auto [d_before, e_before] = *heading_error_at[0];
+      const auto [d_after, e_after] = *heading_error_at[1];
+      reference.neighbour_fix_heading_intercept_rad = (e_before * d_after + e_after * d_before) / (d_before + d_after);
+    }
   }
 }
 
@@ -359,13 +352,25 @@ void KeyframeStore::setPlaneUncertainty(std::size_t keyframe, const std::optiona
   reference.plane_distance_sigma = stored->distance_sigma;
   reference.plane_pivot = stored->pivot;
   reference.neighbour_fix_error_per_m2 = stored->fix_error_per_m2;
+  reference.neighbour_fix_heading_intercept_rad = stored->fix_heading_intercept_rad;
+}
+
+void KeyframeStore::setHeadingFloor(double configured_rad) {
+  std::vector<double> intercepts;
+  for (const KeyframeReference& k : keyframes_) {
+    if (k.neighbour_fix_heading_intercept_rad) intercepts.push_back(*k.neighbour_fix_heading_intercept_rad);
+  }
+  const double floor = pooledHeadingFloor(intercepts, configured_rad);
+  for (KeyframeReference& k : keyframes_) {
+    if (k.neighbour_fix_error_per_m2) k.neighbour_fix_heading_floor_rad = floor;
+  }
 }
 
 std::optional<PlaneUncertainty> KeyframeStore::planeUncertainty(int keyframe) const {
   const KeyframeReference& reference = at(keyframe);
   if (!plane_uncertainty_known_ || !reference.plane) return std::nullopt;
   return PlaneUncertainty{reference.plane_normal_sigma_rad, reference.plane_distance_sigma, reference.plane_pivot,
-                          reference.neighbour_fix_error_per_m2};
+                          reference.neighbour_fix_error_per_m2, reference.neighbour_fix_heading_intercept_rad};
 }
 
 std::vector<Pose2D> KeyframeStore::poses() const {

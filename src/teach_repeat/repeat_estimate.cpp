@@ -1,5 +1,6 @@
 #include "homography_teach_repeat/teach_repeat/repeat_estimate.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -95,6 +96,23 @@ std::string describeOne(const char* what, double used, const char* unit, const c
 }
 }  // namespace
 
+double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual) {
+  // Within [0.5, 2]: a corner's pair can see two walls, and its residual says more of that than of
+  // the pixels.
+  constexpr double kSmallest = 0.5;
+  constexpr double kLargest = 2.0;
+  if (!route_residual) return 1.0;
+  double squares = 0.0;
+  int pairs = 0;
+  for (const std::size_t j : {k - 1, k}) {  // (k - 1 wraps for k = 0: out of range)
+    if (j >= route.keyframes.size() || !route.keyframes[j].match_residual) continue;
+    squares += std::pow(route.keyframes[j].match_residual->rms_px, 2);
+    ++pairs;
+  }
+  if (pairs == 0) return 1.0;
+  return std::clamp(std::sqrt(squares / pairs) / *route_residual, kSmallest, kLargest);
+}
+
 bool routeMeasurementsMissing(const Route& route) {
   return !route.info.match_noise_measured || !route.info.tilt_measured || planeUncertaintyMissing(route);
 }
@@ -109,6 +127,21 @@ std::string describeMeasuredNoise(const RepeatOptions& options, const Route& rou
                              "tilt_sigma");
   if (options.plane_sigma_from_neighbours && planeUncertaintyStored(route)) {
     text += "; the planes' uncertainty as the route stores it";
+    int intercepts = 0;  // the heading floor's measurement (docs/math.md §3.8)
+    double squares = 0.0;
+    for (const RouteKeyframe& k : route.keyframes) {
+      if (!k.plane_uncertainty || !k.plane_uncertainty->fix_heading_intercept_rad) continue;
+      squares += std::pow(*k.plane_uncertainty->fix_heading_intercept_rad, 2);
+      ++intercepts;
+    }
+    if (intercepts > 0) {
+      char measured[200];
+      std::snprintf(measured, sizeof(measured),
+                    ", the heading floor where the fixes' error is measured from %d keyframes' intercepts "
+                    "(%.2g rad rms) and common_shift_sigma",
+                    intercepts, std::sqrt(squares / intercepts));
+      text += measured;
+    }
   } else if (options.plane_sigma_from_neighbours && planeUncertaintyMissing(route)) {
     text += "; the planes' uncertainty measured at load (the route does not store it)";
   }

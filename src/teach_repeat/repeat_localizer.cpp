@@ -27,6 +27,7 @@ KeyframeReference planeOf(const KeyframeReference& reference) {
   plane_only.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
   plane_only.plane_distance_sigma = reference.plane_distance_sigma;
   plane_only.neighbour_fix_error_per_m2 = reference.neighbour_fix_error_per_m2;
+  plane_only.neighbour_fix_heading_floor_rad = reference.neighbour_fix_heading_floor_rad;
   return plane_only;
 }
 
@@ -219,6 +220,7 @@ void RepeatLocalizer::keepAsTemporaryReference(FrameObservations frame, const Re
     current.plane_normal_sigma_rad = source.plane_normal_sigma_rad;
     current.plane_distance_sigma = source.plane_distance_sigma;
     current.neighbour_fix_error_per_m2 = source.neighbour_fix_error_per_m2;
+    current.neighbour_fix_heading_floor_rad = source.neighbour_fix_heading_floor_rad;
     current.pixel_noise_scale = source.pixel_noise_scale;
   } else {
     current.heading_offset = estimate.heading_correction;

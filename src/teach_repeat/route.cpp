@@ -183,6 +183,12 @@ Status PlaneUncertainty::validate() const {
     }
     if ((e.diagonal().array() < 0.0).any()) return invalid("fix_error_per_m2 has a negative variance");
   }
+  if (fix_heading_intercept_rad) {
+    if (!fix_error_per_m2) return invalid("fix_heading_intercept_rad without fix_error_per_m2");
+    if (!(std::abs(*fix_heading_intercept_rad) <= kLargestHeadingFloorRad)) {
+      return invalid("fix_heading_intercept_rad must be within [-0.05, 0.05]");
+    }
+  }
   return Status::ok();
 }
 

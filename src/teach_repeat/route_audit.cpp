@@ -78,6 +78,7 @@ Expected<PredictedFix> predictFix(const KeyframeReference& reference, const Pinh
     as_repeated.plane_normal_sigma_rad = reference.plane_normal_sigma_rad;
     as_repeated.plane_distance_sigma = reference.plane_distance_sigma;
     as_repeated.neighbour_fix_error_per_m2 = reference.neighbour_fix_error_per_m2;
+    as_repeated.neighbour_fix_heading_floor_rad = reference.neighbour_fix_heading_floor_rad;
   }
   PlanarPoseEstimatorOptions pose_options = fixPoseOptions(as_repeated, options.repeat.pose);
   pose_options.pixel_sigma_px *= stretch;
@@ -284,6 +285,7 @@ Expected<RouteAudit> auditRoute(const Route& route, const RouteAuditOptions& con
       a.plane_distance_sigma = reference.plane_distance_sigma;
       if (reference.neighbour_fix_error_per_m2) {
         a.neighbour_fix_error_per_m = Eigen::Vector3d(reference.neighbour_fix_error_per_m2->diagonal().cwiseSqrt());
+        a.neighbour_fix_heading_floor_rad = reference.neighbour_fix_heading_floor_rad;
       }
       const auto predicted = predictFix(reference, camera, mount, options);
       if (!predicted) {

@@ -92,6 +92,9 @@ void emitPlaneUncertainty(YAML::Emitter& out, const std::optional<PlaneUncertain
     for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) rows.push_back((*uncertainty->fix_error_per_m2)(r, c));
     out << YAML::Key << "fix_error_per_m2" << YAML::Value << YAML::Flow << rows;
   }
+  if (uncertainty->fix_heading_intercept_rad) {
+    out << YAML::Key << "fix_heading_intercept_rad" << YAML::Value << *uncertainty->fix_heading_intercept_rad;
+  }
   out << YAML::EndMap;
 }
 
@@ -102,7 +105,7 @@ std::optional<PlaneUncertainty> readPlaneUncertainty(const Reader& reader, const
   const std::string name = owner + ": plane_uncertainty";
   if (version < 5) throw reader.error(entry, name + " needs format_version 5");
   if (!plane) throw reader.error(entry, name + " without a plane");
-  if (!entry.IsMap()) throw reader.error(entry, name + " must be a map {normal_rad, distance, pivot, fix_error_per_m2}");
+  if (!entry.IsMap()) throw reader.error(entry, name + " must be a map {normal_rad, distance, pivot, fix_error_per_m2, fix_heading_intercept_rad}");
   PlaneUncertainty read;
   read.normal_sigma_rad = reader.get<double>(entry, "normal_rad");
   read.distance_sigma = reader.get<double>(entry, "distance");
@@ -117,6 +120,9 @@ std::optional<PlaneUncertainty> readPlaneUncertainty(const Reader& reader, const
     Eigen::Matrix3d error;
     for (std::size_t i = 0; i < 9; ++i) error(static_cast<int>(i / 3), static_cast<int>(i % 3)) = rows[i];
     read.fix_error_per_m2 = error;
+  }
+  if (entry["fix_heading_intercept_rad"]) {
+    read.fix_heading_intercept_rad = reader.get<double>(entry, "fix_heading_intercept_rad");
   }
   const Status valid = read.validate();
   if (!valid.isOk()) throw reader.error(entry, name + ": " + valid.message());

@@ -46,7 +46,8 @@ ValidRoute makeRoute() {
   // What the teach run measures (docs/route_format.md, "Measured noise"), so that its fields are
   // in the index the fuzzer mutates.
   const htr::ScenePlane wall{Eigen::Vector3d::UnitZ(), 3.0};
-  htr::PlaneUncertainty uncertainty{0.02, 0.03, Eigen::Vector3d(0.5, -0.2, 3.0), Eigen::Matrix3d::Identity() * 1e-4};
+  htr::PlaneUncertainty uncertainty{0.02, 0.03, Eigen::Vector3d(0.5, -0.2, 3.0), Eigen::Matrix3d::Identity() * 1e-4,
+                                    -2e-4};
   for (const auto& status :
        {writer->setMeasuredNoise({htr::MatchResidual{0.3, 40}, std::nullopt}, {htr::PairTilt{0.001, -0.002}, std::nullopt}),
         writer->setPlanes({wall, wall}, 0.0), writer->setPlaneUncertainties({uncertainty, uncertainty})}) {

@@ -562,6 +562,84 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
   for (int k = 0; k < n; ++k) EXPECT_FALSE(unmeasured->at(k).neighbour_fix_error_per_m2) << k;
 }
 
+// The heading floor measured with the fix's error (docs/math.md §3.8): what of the neighbours'
+// heading errors does not grow with the displacement (their errors interpolated to zero
+// displacement between the neighbour before and the one after: each keyframe's intercept), their
+// rms over the keyframes measured from both sides with the repeat's configured floor counted as
+// one more. On the exact wall the
+// fixes' heading errors are a few 1e-4 rad, so the floor is nearly the configured one over
+// √(m + 1); a keyframe recorded 0.01 rad turned (as a teach run's odometry may record it) shows
+// its error at both its neighbours with the same sign: its own intercept is about 0.01 rad and its
+// neighbour's a part of that with the other sign (the turned keyframe is on one side of it). A fix against a
+// measured keyframe takes that floor in place of the configured common shift; elsewhere the
+// configured one stays.
+TEST_F(KeyframeStoreOnAWall, TheHeadingFloorIsWhatOfTheNeighboursHeadingErrorsDoesNotGrowWithTheDisplacement) {
+  const int n = static_cast<int>(taught_.keyframes.size());
+  ASSERT_GE(n, 5);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_sigma_from_neighbours = true;
+  const double configured = options.pose.common_shift_sigma_px / syntheticCalibration().fx;
+  const auto exact = KeyframeStore::load(taught_, options);
+  ASSERT_TRUE(exact.isOk()) << exact.status().toString();
+  const int both_sides = n - 2;  // every fix of the exact wall passes (the test above)
+  for (int k = 0; k < n; ++k) {
+    ASSERT_TRUE(exact->at(k).neighbour_fix_heading_floor_rad) << k;
+    EXPECT_NEAR(*exact->at(k).neighbour_fix_heading_floor_rad, configured / std::sqrt(both_sides + 1.0),
+                0.1 * configured / std::sqrt(both_sides + 1.0))
+        << k;
+  }
+
+  Route turned = taught_;
+  constexpr double kRecordedTurn = 0.01;
+  turned.keyframes[2].pose.yaw += kRecordedTurn;
+  options.pose.common_shift_sigma_px = 0.0;  // the intercepts alone
+  const auto off = KeyframeStore::load(turned, options);
+  ASSERT_TRUE(off.isOk()) << off.status().toString();
+  ASSERT_TRUE(off->at(2).neighbour_fix_heading_intercept_rad);
+  const double at_2 = *off->at(2).neighbour_fix_heading_intercept_rad;
+  EXPECT_NEAR(std::abs(at_2), kRecordedTurn, 0.1 * kRecordedTurn);
+  // Keyframe 3 has the turned keyframe on one side: a part of it, the other sign (keyframe 1's fix
+  // from keyframe 2 is refused here, whose plane is carried 0.01 rad off).
+  ASSERT_TRUE(off->at(3).neighbour_fix_heading_intercept_rad);
+  const double at_3 = *off->at(3).neighbour_fix_heading_intercept_rad;
+  EXPECT_LT(at_3 * at_2, 0.0);
+  EXPECT_GT(std::abs(at_3), 0.2 * kRecordedTurn);
+  EXPECT_LT(std::abs(at_3), 0.7 * kRecordedTurn);
+  EXPECT_FALSE(off->at(0).neighbour_fix_heading_intercept_rad);  // one neighbour: no intercept
+  double squares = 0.0;  // the floor pools them (with the configured 0 here)
+  int intercepts = 0;
+  for (int k = 0; k < n; ++k) {
+    if (!off->at(k).neighbour_fix_heading_intercept_rad) continue;
+    squares += std::pow(*off->at(k).neighbour_fix_heading_intercept_rad, 2);
+    ++intercepts;
+  }
+  ASSERT_TRUE(off->at(2).neighbour_fix_heading_floor_rad);
+  EXPECT_NEAR(*off->at(2).neighbour_fix_heading_floor_rad, std::sqrt(squares / (intercepts + 1.0)), 1e-15);
+  EXPECT_GT(*off->at(2).neighbour_fix_heading_floor_rad, kRecordedTurn / std::sqrt(intercepts + 1.0));
+  EXPECT_EQ(*off->at(0).neighbour_fix_heading_floor_rad, *off->at(2).neighbour_fix_heading_floor_rad);  // one per route
+  // The repeat pools them with its own configured floor (one keyframe's worth).
+  options.pose.common_shift_sigma_px = 2.0;
+  const auto configured_more = KeyframeStore::load(turned, options);
+  ASSERT_TRUE(configured_more.isOk()) << configured_more.status().toString();
+  const double c = 2.0 / syntheticCalibration().fx;
+  EXPECT_NEAR(*configured_more->at(2).neighbour_fix_heading_floor_rad, std::sqrt((c * c + squares) / (intercepts + 1.0)),
+              1e-15);
+
+  // fixPoseOptions: the measured floor in place of the configured common shift, heading_sigma added.
+  PlanarPoseEstimatorOptions configured_pose;
+  configured_pose.common_shift_sigma_px = 0.5;
+  configured_pose.heading_sigma_rad = 0.0003;
+  const PlanarPoseEstimatorOptions measured = fixPoseOptions(off->at(2), configured_pose);
+  EXPECT_EQ(measured.common_shift_sigma_px, 0.0);
+  EXPECT_NEAR(measured.heading_sigma_rad, std::hypot(0.0003, *off->at(2).neighbour_fix_heading_floor_rad), 1e-15);
+  KeyframeReference unmeasured = off->at(2);
+  unmeasured.neighbour_fix_error_per_m2.reset();  // the plane's term: the configured floor
+  const PlanarPoseEstimatorOptions plane_term = fixPoseOptions(unmeasured, configured_pose);
+  EXPECT_EQ(plane_term.common_shift_sigma_px, 0.5);
+  EXPECT_EQ(plane_term.heading_sigma_rad, 0.0003);
+}
+
 // The teach run stores each plane's uncertainty (measurePlaneUncertainty; docs/route_format.md,
 // "Measured noise"): what the store measures at load, read instead where every plane has it, and
 // what the store then holds whatever it is; a route where one plane lacks it is measured at load
@@ -591,14 +669,23 @@ TEST_F(KeyframeStoreOnAWall, TheTeachRunStoresThePlanesUncertaintyTheRepeatReads
     if (stored.fix_error_per_m2) {
       EXPECT_LT((*stored.fix_error_per_m2 - *measured.fix_error_per_m2).norm(), 1e-12) << k;
     }
+    ASSERT_EQ(stored.fix_heading_intercept_rad.has_value(), measured.fix_heading_intercept_rad.has_value()) << k;
+    if (stored.fix_heading_intercept_rad) {
+      EXPECT_NEAR(*stored.fix_heading_intercept_rad, *measured.fix_heading_intercept_rad, 1e-12) << k;
+    }
     EXPECT_EQ(read->at(k).plane_normal_sigma_rad, stored.normal_sigma_rad) << k;
+    ASSERT_EQ(read->at(k).neighbour_fix_heading_floor_rad.has_value(),
+              at_load->at(k).neighbour_fix_heading_floor_rad.has_value()) << k;
+    if (read->at(k).neighbour_fix_heading_floor_rad) {  // pooled alike, read or measured
+      EXPECT_NEAR(*read->at(k).neighbour_fix_heading_floor_rad, *at_load->at(k).neighbour_fix_heading_floor_rad, 1e-12) << k;
+    }
   }
 
   // Read, whatever it holds: keyframe 2's changed.
   Route changed = stored_;
   const ScenePlane& plane = *changed.keyframes[2].plane;
   const Eigen::Vector3d pivot = plane.distance * plane.normal + 0.5 * plane.normal.cross(Eigen::Vector3d::UnitY()).normalized();
-  *changed.keyframes[2].plane_uncertainty = PlaneUncertainty{0.2, 0.15, pivot, std::nullopt};
+  *changed.keyframes[2].plane_uncertainty = PlaneUncertainty{0.2, 0.15, pivot, std::nullopt, std::nullopt};
   const auto store = KeyframeStore::load(changed, options);
   ASSERT_TRUE(store.isOk()) << store.status().toString();
   EXPECT_EQ(store->at(2).plane_normal_sigma_rad, 0.2);

@@ -421,8 +421,9 @@ TEST(Route, MeasuredTiltIsKeptAndValidated) {
 }
 
 // Each plane's uncertainty (format 5) round-trips; stored counts only where every keyframe with a
-// plane has it; a value out of range, not finite, an asymmetric fix error, one on a keyframe
-// without a plane or in a format 4 index is refused on load naming the keyframe, and by the writer.
+// plane has it; a value out of range, not finite, an asymmetric fix error, a heading intercept without
+// the fix error, one on a keyframe without a plane or in a format 4 index is refused on load naming
+// the keyframe, and by the writer.
 TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
   const std::string dir = temporaryDirectory();
   writeRoute(dir, 3);
@@ -439,8 +440,9 @@ TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
   Eigen::Matrix3d error;
   error << 0.0004, 0.0001, 0.0, 0.0001, 0.0009, 0.0, 0.0, 0.0, 1e-6;
   measured.fix_error_per_m2 = error;
+  measured.fix_heading_intercept_rad = -0.00025;
   route->keyframes[0].plane_uncertainty = measured;
-  route->keyframes[1].plane_uncertainty = PlaneUncertainty{0.125, 0.25, std::nullopt, std::nullopt};
+  route->keyframes[1].plane_uncertainty = PlaneUncertainty{0.125, 0.25, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_TRUE(planeUncertaintyMissing(*route));  // keyframe 2's
   EXPECT_FALSE(planeUncertaintyStored(*route));
   route->keyframes[2].plane.reset();
@@ -459,7 +461,10 @@ TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
   EXPECT_DOUBLE_EQ(read.pivot->y(), -0.25);
   ASSERT_TRUE(read.fix_error_per_m2);
   EXPECT_LT((*read.fix_error_per_m2 - error).cwiseAbs().maxCoeff(), 1e-15);
+  ASSERT_TRUE(read.fix_heading_intercept_rad);
+  EXPECT_DOUBLE_EQ(*read.fix_heading_intercept_rad, -0.00025);
   ASSERT_TRUE(loaded->keyframes[1].plane_uncertainty);
+  EXPECT_FALSE(loaded->keyframes[1].plane_uncertainty->fix_heading_intercept_rad);
   EXPECT_FALSE(loaded->keyframes[1].plane_uncertainty->pivot);
   EXPECT_FALSE(loaded->keyframes[1].plane_uncertainty->fix_error_per_m2);
   EXPECT_FALSE(loaded->keyframes[2].plane_uncertainty);
@@ -476,6 +481,12 @@ TEST(Route, PlaneUncertaintyIsKeptAndValidated) {
                      {"{normal_rad: 0.125, distance: -0.01}", "keyframe 1"},
                      {"{normal_rad: 0.125, distance: 0.25, pivot: [1, 2]}", "pivot"},
                      {"{normal_rad: 0.125, distance: 0.25, fix_error_per_m2: [1, 0, 0, 0, 1, 0, 0, 0, -1]}", "negative"},
+                     {"{normal_rad: 0.125, distance: 0.25, fix_heading_intercept_rad: 0.001}",
+                      "keyframe 1: plane_uncertainty: fix_heading_intercept_rad without fix_error_per_m2"},
+                     {"{normal_rad: 0.125, distance: 0.25, fix_error_per_m2: [1, 0, 0, 0, 1, 0, 0, 0, 1], "
+                      "fix_heading_intercept_rad: .nan}", "keyframe 1: plane_uncertainty: fix_heading_intercept_rad must be within"},
+                     {"{normal_rad: 0.125, distance: 0.25, fix_error_per_m2: [1, 0, 0, 0, 1, 0, 0, 0, 1], "
+                      "fix_heading_intercept_rad: -0.06}", "fix_heading_intercept_rad must be within [-0.05, 0.05]"},
                      {"{normal_rad: 0.125}", "distance"},
                      {"{normal_rad: 0.125, distance: 0.25, pivot: [0, 0, 3]}", "pivot is not on the keyframe's plane"}});
   // Measured by a build whose measurement differed: read, but measured again (missing).

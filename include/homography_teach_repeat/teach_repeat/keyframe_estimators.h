@@ -75,14 +75,23 @@ std::unique_ptr<KeyframeEstimator> makeKeyframeEstimator(const EstimatorContext&
 // The pose options of a Fast-HD fix against `reference` from the repeat's (docs/math.md §3.6, §3.9,
 // §3.10): the pixel σ times the keyframe's scale; the plane's σ the configured one or the
 // keyframe's own where larger, except where its neighbours' fixes measured the error
-// (neighbour_fix_error_per_m2), where the configured one alone. The repeat and the route audit
-// both take them from here.
+// (neighbour_fix_error_per_m2), where the configured one alone; there the heading floor is the one
+// measured with it (neighbour_fix_heading_floor_rad, §3.8) in place of the configured common shift
+// (heading_sigma_rad still added). The repeat and the route audit both take them from here.
 PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, PlanarPoseEstimatorOptions options);
 // What the neighbours' fixes add to the covariance of a fix at `camera_pose` (the current camera in
 // the reference camera's frame; camera frame (x, z, θ)): d² times neighbour_fix_error_per_m2, d
 // the camera's displacement; zero without it. Part of the fix's shared error: every fix against
 // the keyframe has it (docs/math.md §7.1).
 Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose);
+// The heading floor of fixes against keyframes whose fix error is measured [rad] (docs/math.md §3.8):
+// a plane's error turns a fix in proportion to the camera's displacement, which has opposite signs
+// at a keyframe's neighbours before and after, so their heading errors interpolated to zero
+// displacement (`intercepts`, KeyframeReference::neighbour_fix_heading_intercept_rad) are what does
+// not grow with it. Their rms with the configured floor `configured_rad` (common_shift_sigma_px / fx)
+// counted as one keyframe more, √((configured² + Σ ε²) / (1 + m)); the configured one without
+// intercepts; at most kLargestHeadingFloorRad.
+double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad);
 
 // The fast_hd mode's checks of a pose against the reference's plane, which refuse it
 // (kNoConsensus, naming which): its inliers' RMS residual about the plane-induced homography of

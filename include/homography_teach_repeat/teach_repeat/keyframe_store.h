@@ -44,6 +44,11 @@ struct KeyframeReference {
   // term (keyframe_estimators.h: fixPoseOptions, neighbourFixCovariance). Absent: no neighbour
   // measured, or they disagree.
   std::optional<Eigen::Matrix3d> neighbour_fix_error_per_m2;
+  // With it: its neighbours' heading errors interpolated to zero displacement [rad] where both were
+  // measured (PlaneUncertainty::fix_heading_intercept_rad), and the heading floor of a fix against it,
+  // the route's intercepts pooled (pooledHeadingFloor; docs/math.md §3.8), in place of the configured.
+  std::optional<double> neighbour_fix_heading_intercept_rad;
+  std::optional<double> neighbour_fix_heading_floor_rad;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
   // This keyframe's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe): the RMS
   // match residual of the teach run's pairs that include it over the route's, within [0.5, 2]; 1
@@ -61,13 +66,6 @@ bool turnedBetween(const Pose2D& a, const Pose2D& b);
 // re-projected (a turn in place moves the camera by the mount's offset times the turn: 7 cm for
 // 0.2 m and 20°), not a view from elsewhere [m]. The neighbours' fixes and the route audit skip it.
 constexpr double kSameViewpointM = 0.1;
-
-// Keyframe k's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe,
-// KeyframeReference::pixel_noise_scale; docs/math.md §3.9): the RMS match residual of the teach
-// run's pairs that include it (k − 1 → k and k → k + 1) over `route_residual` (routeMatchResidual),
-// within [0.5, 2]; 1 where neither pair nor the route was measured. The repeat and the route audit
-// both take it from here.
-double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual);
 
 class KeyframeStore {
  public:
@@ -116,7 +114,8 @@ class KeyframeStore {
   // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
   // and that were not reached by turning (turnedBetween), matched to its plane features and
   // localized with its plane as the fast_hd mode does (localizeAgainstPlane, checked; at least
-  // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10).
+  // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10); and where both
+  // neighbours were measured, neighbour_fix_heading_intercept_rad (§3.8).
   void measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
                              const RepeatOptions& options);
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
@@ -124,6 +123,9 @@ class KeyframeStore {
 
   // A keyframe's stored plane_uncertainty into its reference (nothing without one or a plane).
   void setPlaneUncertainty(std::size_t keyframe, const std::optional<PlaneUncertainty>& stored);
+  // Each keyframe with a measured fix error gets the route's heading floor: its keyframes' heading
+  // intercepts pooled with the configured floor `configured_rad` (pooledHeadingFloor).
+  void setHeadingFloor(double configured_rad);
 
   // Loads each keyframe's experiences (after the keyframes' planes are final).
   Status loadExperiences(const Route& route, const CameraMount& mount);

@@ -188,6 +188,12 @@ struct LocalizeTiming {
 // measured tilt σ likewise; otherwise those stay as configured. RepeatLocalizer and the route audit
 // localize with it (docs/math.md §3.9).
 RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route);
+// Keyframe k's pixel σ over the route's (RepeatOptions::pixel_noise_per_keyframe,
+// KeyframeReference::pixel_noise_scale; docs/math.md §3.9): the RMS match residual of the teach
+// run's pairs that include it (k − 1 → k and k → k + 1) over `route_residual` (routeMatchResidual),
+// within [0.5, 2]; 1 where neither pair nor the route was measured. The repeat and the route audit
+// both take it from here.
+double keyframePixelNoiseScale(const Route& route, std::size_t k, const std::optional<double>& route_residual);
 // One line for the log: which pixel σ and tilt σ withMeasuredNoise gives and where each comes from
 // (the route's measurement and the gain; the gain 0; or a route that was not measured, with how to
 // measure it), and whether the planes' uncertainty is read from the route or measured at load.

@@ -16,7 +16,7 @@
 //   measured_noise: {match_residual_px: 0.30,  # the keyframes' median match residual (below);
 //                    tilt_rad: 0.004}    # the std of the keyframe pairs' relative tilt (below);
 //                                        # absent: not measured (format 1-2; tilt_rad: 1-3)
-//   plane_uncertainty_method: 1          # kPlaneUncertaintyMethod of the keyframes' plane_uncertainty
+//   plane_uncertainty_method: 2          # kPlaneUncertaintyMethod of the keyframes' plane_uncertainty
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
@@ -29,7 +29,8 @@
 //        plane_uncertainty: {normal_rad: 0.02,            # optional, with a plane: its error as its
 //                            distance: 0.03,              # neighbours measured it (teach; below)
 //                            pivot: [x, y, z],
-//                            fix_error_per_m2: [9 numbers]},
+//                            fix_error_per_m2: [9 numbers],
+//                            fix_heading_intercept_rad: -0.0002},
 //        experiences:                                     # optional: other views of this place
 //          - {stamp, pose: {x, y, yaw},                   # that repeat runs learned: base_link in
 //             pose_covariance: [9 numbers],               # the route frame as the repeat estimated
@@ -61,8 +62,12 @@ constexpr int kRouteFormatVersion = 5;
 // The version of the planes' uncertainty measurement (KeyframeStore's measurePlaneAgreement and
 // measureNeighbourFixes), stored with the values: raised whenever that measurement changes, so that
 // a route measured by an older build is measured again (at load, and by route_info --migrate)
-// rather than read.
-constexpr int kPlaneUncertaintyMethod = 1;
+// rather than read. 2 (2026-12-05): the heading intercepts measured with the fix's error
+// (PlaneUncertainty::fix_heading_intercept_rad).
+constexpr int kPlaneUncertaintyMethod = 2;
+// The largest heading floor and |PlaneUncertainty::fix_heading_intercept_rad| [rad]: what the pose
+// options' heading_sigma accepts (PlanarPoseEstimatorOptions).
+constexpr double kLargestHeadingFloorRad = 0.05;
 
 // How closely a keyframe's features match the next keyframe's about their homography, measured by
 // the teach run (teach_session.h, measureRouteNoise): the pixel noise of this camera, lens and
@@ -113,6 +118,12 @@ struct PlaneUncertainty {
   // over its neighbours' images relocalized against it (camera frame (x, z, θ) [1, 1, rad² per
   // m²], symmetric, non-negative diagonal); absent where no neighbour measured it.
   std::optional<Eigen::Matrix3d> fix_error_per_m2;
+  // The part of such a fix's heading error that does not grow with the displacement [rad, signed,
+  // within ±0.05] (docs/math.md §3.8): its neighbours' heading errors interpolated to zero
+  // displacement between the one before and the one after; with fix_error_per_m2, where both were
+  // measured (KeyframeStore::measureNeighbourFixes). The repeat pools the route's into the heading
+  // floor of the fixes whose error is measured (pooledHeadingFloor).
+  std::optional<double> fix_heading_intercept_rad;
   // kInvalidInput saying which value is non-finite or out of range.
   Status validate() const;
   // Whether it was measured with `plane`: its pivot (where it has one) lies on it (to 1e-9 of the

@@ -68,6 +68,8 @@ struct KeyframeAudit {
   // Where its neighbours' planes agree with it: the RMS error per metre of their images relocalized
   // against it (camera frame: x, z, heading [rad/m]; KeyframeReference::neighbour_fix_error_per_m2).
   std::optional<Eigen::Vector3d> neighbour_fix_error_per_m;
+  // With it, the heading floor of a fix against it [rad] (KeyframeReference::neighbour_fix_heading_floor_rad).
+  std::optional<double> neighbour_fix_heading_floor_rad;
   int plane_features = 0;               // the features the repeat matches (on the plane)
   // (x forward, y left, yaw) of base_link for a fix probe_offset_m to the right; absent with the
   // reason in prediction_problem.

@@ -51,6 +51,7 @@ nlohmann::json toJson(const KeyframeAudit& a) {
       const Eigen::Vector3d& e = *a.neighbour_fix_error_per_m;
       k["neighbour_fix_error_per_m"] = {{"x", e.x()}, {"z", e.y()}, {"heading", e.z()}};
     }
+    if (a.neighbour_fix_heading_floor_rad) k["neighbour_fix_heading_floor_rad"] = *a.neighbour_fix_heading_floor_rad;
   }
   if (a.predicted_covariance) {
     const Eigen::Matrix3d& c = *a.predicted_covariance;
