@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include "homography_teach_repeat/common/median.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 #include "homography_teach_repeat/features/feature_matcher.h"
 #include "homography_teach_repeat/homography/homography.h"
@@ -271,10 +272,12 @@ PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, Pl
   return options;
 }
 
-double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad) {
-  double sum_of_squares = configured_rad * configured_rad;
-  for (const double intercept : intercepts) sum_of_squares += intercept * intercept;
-  return std::min(std::sqrt(sum_of_squares / static_cast<double>(intercepts.size() + 1)), kLargestHeadingFloorRad);
+double pooledHeadingFloor(std::vector<double> intercepts, double configured_rad) {
+  constexpr double kChiSquare1Median = 0.454936;  // of a unit χ² with one degree of freedom
+  const double m = static_cast<double>(intercepts.size());
+  for (double& intercept : intercepts) intercept *= intercept;
+  const double typical = intercepts.empty() ? 0.0 : *upperMedian(std::move(intercepts)) / kChiSquare1Median;
+  return std::min(std::sqrt((configured_rad * configured_rad + m * typical) / (m + 1.0)), kLargestHeadingFloorRad);
 }
 
 Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {

@@ -360,9 +360,11 @@ void KeyframeStore::setHeadingFloor(double configured_rad) {
   for (const KeyframeReference& k : keyframes_) {
     if (k.neighbour_fix_heading_intercept_rad) intercepts.push_back(*k.neighbour_fix_heading_intercept_rad);
   }
-  const double floor = pooledHeadingFloor(intercepts, configured_rad);
+  const double typical = pooledHeadingFloor(std::move(intercepts), configured_rad);
   for (KeyframeReference& k : keyframes_) {
-    if (k.neighbour_fix_error_per_m2) k.neighbour_fix_heading_floor_rad = floor;
+    if (!k.neighbour_fix_error_per_m2) continue;
+    const double own = std::abs(k.neighbour_fix_heading_intercept_rad.value_or(0.0));
+    k.neighbour_fix_heading_floor_rad = std::min(std::max(typical, own), kLargestHeadingFloorRad);
   }
 }
 

@@ -570,7 +570,9 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
 // fixes' heading errors are a few 1e-4 rad, so the floor is nearly the configured one over
 // √(m + 1); a keyframe recorded 0.01 rad turned (as a teach run's odometry may record it) shows
 // its error at both its neighbours with the same sign: its own intercept is about 0.01 rad and its
-// neighbour's a part of that with the other sign (the turned keyframe is on one side of it). A fix against a
+// neighbour's a part of that with the other sign (the turned keyframe is on one side of it). The
+// route's floor comes from the median square, so the one keyframe that erred keeps its own and
+// does not set the others'. A fix against a
 // measured keyframe takes that floor in place of the configured common shift; elsewhere the
 // configured one stays.
 TEST_F(KeyframeStoreOnAWall, TheHeadingFloorIsWhatOfTheNeighboursHeadingErrorsDoesNotGrowWithTheDisplacement) {
@@ -607,24 +609,29 @@ TEST_F(KeyframeStoreOnAWall, TheHeadingFloorIsWhatOfTheNeighboursHeadingErrorsDo
   EXPECT_GT(std::abs(at_3), 0.2 * kRecordedTurn);
   EXPECT_LT(std::abs(at_3), 0.7 * kRecordedTurn);
   EXPECT_FALSE(off->at(0).neighbour_fix_heading_intercept_rad);  // one neighbour: no intercept
-  double squares = 0.0;  // the floor pools them (with the configured 0 here)
-  int intercepts = 0;
+  std::vector<double> intercepts;  // the floor pools them (with the configured 0 here)
   for (int k = 0; k < n; ++k) {
-    if (!off->at(k).neighbour_fix_heading_intercept_rad) continue;
-    squares += std::pow(*off->at(k).neighbour_fix_heading_intercept_rad, 2);
-    ++intercepts;
+    if (off->at(k).neighbour_fix_heading_intercept_rad) intercepts.push_back(*off->at(k).neighbour_fix_heading_intercept_rad);
   }
-  ASSERT_TRUE(off->at(2).neighbour_fix_heading_floor_rad);
-  EXPECT_NEAR(*off->at(2).neighbour_fix_heading_floor_rad, std::sqrt(squares / (intercepts + 1.0)), 1e-15);
-  EXPECT_GT(*off->at(2).neighbour_fix_heading_floor_rad, kRecordedTurn / std::sqrt(intercepts + 1.0));
-  EXPECT_EQ(*off->at(0).neighbour_fix_heading_floor_rad, *off->at(2).neighbour_fix_heading_floor_rad);  // one per route
+  const double typical = pooledHeadingFloor(intercepts, 0.0);
+  ASSERT_TRUE(off->at(2).neighbour_fix_heading_floor_rad && off->at(3).neighbour_fix_heading_floor_rad);
+  EXPECT_EQ(*off->at(2).neighbour_fix_heading_floor_rad, std::abs(at_2));  // its own, above the route's
+  EXPECT_EQ(*off->at(3).neighbour_fix_heading_floor_rad, std::max(typical, std::abs(at_3)));
+  EXPECT_LT(typical, 0.5 * std::abs(at_2));  // one keyframe that erred does not set every keyframe's
+  EXPECT_EQ(*off->at(0).neighbour_fix_heading_floor_rad, typical);
   // The repeat pools them with its own configured floor (one keyframe's worth).
   options.pose.common_shift_sigma_px = 2.0;
   const auto configured_more = KeyframeStore::load(turned, options);
   ASSERT_TRUE(configured_more.isOk()) << configured_more.status().toString();
   const double c = 2.0 / syntheticCalibration().fx;
-  EXPECT_NEAR(*configured_more->at(2).neighbour_fix_heading_floor_rad, std::sqrt((c * c + squares) / (intercepts + 1.0)),
-              1e-15);
+  const double m = static_cast<double>(intercepts.size());
+  EXPECT_NEAR(*configured_more->at(0).neighbour_fix_heading_floor_rad,
+              std::sqrt((c * c + m * typical * typical * (m + 1.0) / m) / (m + 1.0)), 1e-12);
+  // pooledHeadingFloor: the median square over χ²₁'s median (0.455), the configured as one more.
+  EXPECT_NEAR(pooledHeadingFloor({0.001, -0.002, 0.003}, 0.004),
+              std::sqrt((0.004 * 0.004 + 3.0 * 4e-6 / 0.454936) / 4.0), 1e-9);
+  EXPECT_EQ(pooledHeadingFloor({}, 0.0007), 0.0007);
+  EXPECT_EQ(pooledHeadingFloor({1.0}, 0.0), kLargestHeadingFloorRad);
 
   // fixPoseOptions: the measured floor in place of the configured common shift, heading_sigma added.
   PlanarPoseEstimatorOptions configured_pose;

@@ -84,14 +84,17 @@ PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, Pl
 // the camera's displacement; zero without it. Part of the fix's shared error: every fix against
 // the keyframe has it (docs/math.md §7.1).
 Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose);
-// The heading floor of fixes against keyframes whose fix error is measured [rad] (docs/math.md §3.8):
-// a plane's error turns a fix in proportion to the camera's displacement, which has opposite signs
-// at a keyframe's neighbours before and after, so their heading errors interpolated to zero
-// displacement (`intercepts`, KeyframeReference::neighbour_fix_heading_intercept_rad) are what does
-// not grow with it. Their rms with the configured floor `configured_rad` (common_shift_sigma_px / fx)
-// counted as one keyframe more, √((configured² + Σ ε²) / (1 + m)); the configured one without
-// intercepts; at most kLargestHeadingFloorRad.
-double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad);
+// The route's typical heading floor of fixes against keyframes whose fix error is measured [rad]
+// (docs/math.md §3.8): a plane's error turns a fix in proportion to the camera's displacement,
+// which has opposite signs at a keyframe's neighbours before and after, so their heading errors
+// interpolated to zero displacement (`intercepts`, KeyframeReference::neighbour_fix_heading_intercept_rad)
+// are what does not grow with it. Their variance from their median square (a χ²₁'s median is
+// 0.455 of its mean: one keyframe whose fixes erred far does not set every keyframe's), the
+// configured floor `configured_rad` (common_shift_sigma_px / fx) counted as one keyframe more:
+// √((configured² + m median(ε²) / 0.455) / (1 + m)); the configured one without intercepts; at most
+// kLargestHeadingFloorRad. A keyframe whose own intercept is larger keeps its own
+// (KeyframeStore::setHeadingFloor).
+double pooledHeadingFloor(std::vector<double> intercepts, double configured_rad);
 
 // The fast_hd mode's checks of a pose against the reference's plane, which refuse it
 // (kNoConsensus, naming which): its inliers' RMS residual about the plane-induced homography of

@@ -46,7 +46,7 @@ struct KeyframeReference {
   std::optional<Eigen::Matrix3d> neighbour_fix_error_per_m2;
   // With it: its neighbours' heading errors interpolated to zero displacement [rad] where both were
   // measured (PlaneUncertainty::fix_heading_intercept_rad), and the heading floor of a fix against it,
-  // the route's intercepts pooled (pooledHeadingFloor; docs/math.md §3.8), in place of the configured.
+  // the route's intercepts pooled or its own (setHeadingFloor; docs/math.md §3.8), in place of the configured.
   std::optional<double> neighbour_fix_heading_intercept_rad;
   std::optional<double> neighbour_fix_heading_floor_rad;
   bool turn = false;                   // the teach run turned here (isTurnKeyframe)
@@ -123,8 +123,9 @@ class KeyframeStore {
 
   // A keyframe's stored plane_uncertainty into its reference (nothing without one or a plane).
   void setPlaneUncertainty(std::size_t keyframe, const std::optional<PlaneUncertainty>& stored);
-  // Each keyframe with a measured fix error gets the route's heading floor: its keyframes' heading
-  // intercepts pooled with the configured floor `configured_rad` (pooledHeadingFloor).
+  // Each keyframe with a measured fix error gets the route's heading floor (its keyframes' heading
+  // intercepts pooled with the configured floor `configured_rad`, pooledHeadingFloor), or its own
+  // intercept where larger.
   void setHeadingFloor(double configured_rad);
 
   // Loads each keyframe's experiences (after the keyframes' planes are final).
