@@ -340,7 +340,8 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
     if (heading_error_at[0] && heading_error_at[1]) {
       const auto [d_before, e_before] = *heading_error_at[0];
       const auto [d_after, e_after] = *heading_error_at[1];
-      reference.neighbour_fix_heading_intercept_rad = (e_before * d_after + e_after * d_before) / (d_before + d_after);
+      const double intercept = (e_before * d_after + e_after * d_before) / (d_before + d_after);  // (at most the cap)
+      reference.neighbour_fix_heading_intercept_rad = std::clamp(intercept, -kLargestHeadingFloorRad, kLargestHeadingFloorRad);
     }
   }
 }
