@@ -104,21 +104,22 @@ Expected<KeyframeStore> KeyframeStore::load(const Route& route, const RepeatOpti
   }
   const Pose2D& m = route.info.camera_mount;
   const CameraMount mount(m.x, m.y, m.yaw);
+  const PinholeCamera camera(route.info.camera);
   if (options.mode != RepeatMode::kMu && options.plane_feature_tolerance_px > 0.0) {
-    store.restrictToPlaneFeatures(PinholeCamera(route.info.camera), mount, options);
+    store.restrictToPlaneFeatures(camera, mount, options);
   }
   if (options.mode == RepeatMode::kFastHd && options.plane_sigma_from_neighbours) {
     if (planeUncertaintyStored(route)) {  // measured by the teach run (or a migration)
       for (std::size_t k = 0; k < route.keyframes.size(); ++k) store.setPlaneUncertainty(k, route.keyframes[k].plane_uncertainty);
     } else {
-      store.measurePlaneAgreement(mount, PinholeCamera(route.info.camera));
-      store.measureNeighbourFixes(route, PinholeCamera(route.info.camera), mount, options);
+      store.measurePlaneAgreement(mount, camera);
+      store.measureNeighbourFixes(route, camera, mount, options);
     }
-    store.setHeadingFloor(options.pose.common_shift_sigma_px / PinholeCamera(route.info.camera).fx());
+    store.setHeadingFloor(options.pose.common_shift_sigma_px / camera.fx());
     store.plane_uncertainty_known_ = true;
   }
   if (options.mode == RepeatMode::kMu && options.mu_line_landmarks) {
-    store.triangulateLines(PinholeCamera(route.info.camera), mount, options.line_landmarks);
+    store.triangulateLines(camera, mount, options.line_landmarks);
   }
   store.experiences_.resize(store.keyframes_.size());
   if (options.mode != RepeatMode::kMu && options.use_experiences) {
@@ -364,8 +365,7 @@ void KeyframeStore::setHeadingFloor(double configured_rad) {
   const double typical = pooledHeadingFloor(std::move(intercepts), configured_rad);
   for (KeyframeReference& k : keyframes_) {
     if (!k.neighbour_fix_error_per_m2) continue;
-    const double own = std::abs(k.neighbour_fix_heading_intercept_rad.value_or(0.0));
-    k.neighbour_fix_heading_floor_rad = std::min(std::max(typical, own), kLargestHeadingFloorRad);
+    k.neighbour_fix_heading_floor_rad = std::max(typical, std::abs(k.neighbour_fix_heading_intercept_rad.value_or(0.0)));
   }
 }
 
