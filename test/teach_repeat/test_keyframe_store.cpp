@@ -18,6 +18,7 @@
 #include "homography_teach_repeat/teach_repeat/teach_session.h"
 #include "support/sanitizers.h"
 #include "support/synthetic_route.h"
+#include "support/synthetic_route_test.h"
 
 using namespace homography_teach_repeat;
 using test_support::syntheticCalibration;
@@ -225,20 +226,17 @@ TEST(KeyframeStore, ATurnKeyframeThatItsNeighboursDisproveKeepsOnlyWhatTheyConfi
   EXPECT_LT(off, 0.1 * kept) << off << " of " << kept << " kept features are not on their plane";
 }
 
-// A route taught along the synthetic wall (AKAZE), loaded; removed after the test.
-class KeyframeStoreOnAWall : public ::testing::Test {
+// A route taught along the synthetic wall (AKAZE) once for the suite (SyntheticRouteTest), removed
+// after it; each test loads its own copy.
+class KeyframeStoreOnAWall : public test_support::SyntheticRouteTest {
  protected:
   void SetUp() override {
-    directory_ = test_support::teachSyntheticRoute(wall_, FeatureType::kAkaze);
-    auto loaded = loadRoute(directory_);
-    ASSERT_TRUE(loaded.isOk()) << loaded.status().toString();
-    taught_ = std::move(*loaded);
+    taught_ = route();
     // The teach run stored each plane's uncertainty; the tests below change planes and poses and
     // have the store measure it at load (the last test: what it stores).
     stored_ = taught_;
     for (RouteKeyframe& keyframe : taught_.keyframes) keyframe.plane_uncertainty.reset();
   }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
 
   // The fast_hd store comparing the planes alone (every feature kept) with their neighbours.
   static RepeatOptions planesAlone() {
@@ -256,8 +254,6 @@ class KeyframeStoreOnAWall : public ::testing::Test {
                                     s * plane->normal.x() + c * plane->normal.z()).normalized();
   }
 
-  const test_support::SyntheticWall wall_;
-  std::string directory_;
   Route taught_;  // without the stored plane uncertainty
   Route stored_;  // as taught
 };
