@@ -272,12 +272,14 @@ PlanarPoseEstimatorOptions fixPoseOptions(const KeyframeReference& reference, Pl
   return options;
 }
 
-double pooledHeadingFloor(std::vector<double> intercepts, double configured_rad) {
+double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad) {
   constexpr double kChiSquare1Median = 0.454936;  // of a unit χ² with one degree of freedom
-  const double m = static_cast<double>(intercepts.size());
-  for (double& intercept : intercepts) intercept *= intercept;
-  const double typical = intercepts.empty() ? 0.0 : *upperMedian(std::move(intercepts)) / kChiSquare1Median;
-  return std::min(std::sqrt((configured_rad * configured_rad + m * typical) / (m + 1.0)), kLargestHeadingFloorRad);
+  std::vector<double> squares;
+  squares.reserve(intercepts.size());
+  for (const double intercept : intercepts) squares.push_back(intercept * intercept);
+  const double m = static_cast<double>(squares.size());
+  const double variance = squares.empty() ? 0.0 : *upperMedian(std::move(squares)) / kChiSquare1Median;
+  return std::min(std::sqrt((configured_rad * configured_rad + m * variance) / (m + 1.0)), kLargestHeadingFloorRad);
 }
 
 Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const PlanarPose& camera_pose) {

@@ -341,7 +341,7 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
     if (heading_error_at[0] && heading_error_at[1]) {
       const auto [d_before, e_before] = *heading_error_at[0];
       const auto [d_after, e_after] = *heading_error_at[1];
-      const double intercept = (e_before * d_after + e_after * d_before) / (d_before + d_after);  // (at most the cap)
+      const double intercept = (e_before * d_after + e_after * d_before) / (d_before + d_after);
       reference.neighbour_fix_heading_intercept_rad = std::clamp(intercept, -kLargestHeadingFloorRad, kLargestHeadingFloorRad);
     }
   }
@@ -362,7 +362,7 @@ void KeyframeStore::setHeadingFloor(double configured_rad) {
   for (const KeyframeReference& k : keyframes_) {
     if (k.neighbour_fix_heading_intercept_rad) intercepts.push_back(*k.neighbour_fix_heading_intercept_rad);
   }
-  const double typical = pooledHeadingFloor(std::move(intercepts), configured_rad);
+  const double typical = pooledHeadingFloor(intercepts, configured_rad);
   for (KeyframeReference& k : keyframes_) {
     if (!k.neighbour_fix_error_per_m2) continue;
     k.neighbour_fix_heading_floor_rad = std::max(typical, std::abs(k.neighbour_fix_heading_intercept_rad.value_or(0.0)));

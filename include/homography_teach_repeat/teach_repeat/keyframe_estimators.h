@@ -94,7 +94,7 @@ Eigen::Matrix3d neighbourFixCovariance(const KeyframeReference& reference, const
 // √((configured² + m median(ε²) / 0.455) / (1 + m)); the configured one without intercepts; at most
 // kLargestHeadingFloorRad. A keyframe whose own intercept is larger keeps its own
 // (KeyframeStore::setHeadingFloor).
-double pooledHeadingFloor(std::vector<double> intercepts, double configured_rad);
+double pooledHeadingFloor(const std::vector<double>& intercepts, double configured_rad);
 
 // The fast_hd mode's checks of a pose against the reference's plane, which refuse it
 // (kNoConsensus, naming which): its inliers' RMS residual about the plane-induced homography of
