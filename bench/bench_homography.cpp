@@ -46,6 +46,19 @@ void BM_RobustDefault30PercentOutliers(benchmark::State& state) {
 }
 BENCHMARK(BM_RobustDefault30PercentOutliers)->Arg(100)->Arg(500)->Unit(benchmark::kMicrosecond);
 
+// The same without the selector's second run at the measured scale (docs/design.md, "The robust
+// homography"): what that run costs, as a ratio to the default in one run.
+void BM_RobustSingleScale30PercentOutliers(benchmark::State& state) {
+  const auto matches = makeMatches(static_cast<int>(state.range(0)), 0.3);
+  htr::RobustHomographyOptions options;
+  options.reselect_at_measured_scale = false;
+  for (auto _ : state) {
+    cv::setRNGSeed(1);
+    benchmark::DoNotOptimize(htr::estimateHomographyRobust(matches, options));
+  }
+}
+BENCHMARK(BM_RobustSingleScale30PercentOutliers)->Arg(100)->Arg(500)->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 
 // main: bench_main.cpp

@@ -15,6 +15,9 @@
 namespace homography_teach_repeat {
 namespace {
 
+// The selector runs again at the measured scale when that is below this share of its threshold.
+constexpr double kReselectionScaleRatio = 0.8;
+
 int toOpenCvMethod(RobustMethod method) {
   switch (method) {
     case RobustMethod::kRansac:
@@ -58,6 +61,14 @@ double adaptiveThreshold(const std::vector<double>& errors, const std::vector<in
   constexpr double kChi2Radius95 = 2.4477;    // sqrt(χ²₂(0.95))
   const double threshold = kChi2Radius95 * (*middle / kRayleighMedian);
   return std::clamp(threshold, options.min_adaptive_threshold_px, options.inlier_threshold_px);
+}
+
+// Σ min(e², τ²) / (n τ²) over every match under H: the MSAC cost at τ.
+double msacCost(const std::vector<double>& errors, double tau) {
+  const double tau_squared = tau * tau;
+  double cost = 0.0;
+  for (double e : errors) cost += std::isfinite(e) ? std::min(e * e, tau_squared) : tau_squared;
+  return cost / (static_cast<double>(errors.size()) * tau_squared);
 }
 
 PointMatches subset(const PointMatches& matches, const std::vector<int>& indices) {
@@ -157,34 +168,21 @@ Expected<RobustHomographyResult> selectAndRefit(const PointMatches& matches,
     if (reselected == inliers || round + 1 == options.max_refit_rounds) break;
     inliers = std::move(reselected);
   }
-  const double tau_squared = options.inlier_threshold_px * options.inlier_threshold_px;
   double sum_squared = 0.0;
   for (int i : inliers) {
     const double e = errors[static_cast<std::size_t>(i)];
     sum_squared += e * e;
   }
   result.rms_transfer_error_px = std::sqrt(sum_squared / static_cast<double>(inliers.size()));
-  double cost = 0.0;
-  for (double e : errors) cost += std::isfinite(e) ? std::min(e * e, tau_squared) : tau_squared;
-  result.msac_cost = cost / (static_cast<double>(matches.size()) * tau_squared);
+  result.msac_cost = msacCost(errors, options.inlier_threshold_px);
   result.inliers = std::move(inliers);
   return result;
 }
 
-}  // namespace
-
-Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& matches,
-                                                          const RobustHomographyOptions& options) {
-  options.validate();
-  if (matches.size() < 4) {
-    return Status(StatusCode::kTooFewPoints,
-                  "a homography needs at least 4 matches, got " + std::to_string(matches.size()));
-  }
-  for (std::size_t i = 0; i < matches.size(); ++i) {
-    if (!matches[i].reference.allFinite() || !matches[i].current.allFinite()) {
-      return Status(StatusCode::kInvalidInput, "match " + std::to_string(i) + " is not finite");
-    }
-  }
+// `hypotheses` selector runs on permutations of the matches (permutation k seeded with k), each
+// refitted; the refit with the lowest MSAC cost at options.inlier_threshold_px.
+Expected<RobustHomographyResult> bestOfHypotheses(const PointMatches& matches,
+                                                  const RobustHomographyOptions& options) {
   std::vector<int> order(matches.size());
   std::iota(order.begin(), order.end(), 0);
   std::optional<RobustHomographyResult> best;
@@ -202,6 +200,45 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
     if (!best || candidate->msac_cost < best->msac_cost) best = std::move(candidate.value());
   }
   if (!best) return last_failure;
+  return std::move(*best);
+}
+
+}  // namespace
+
+Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& matches,
+                                                          const RobustHomographyOptions& options) {
+  options.validate();
+  if (matches.size() < 4) {
+    return Status(StatusCode::kTooFewPoints,
+                  "a homography needs at least 4 matches, got " + std::to_string(matches.size()));
+  }
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    if (!matches[i].reference.allFinite() || !matches[i].current.allFinite()) {
+      return Status(StatusCode::kInvalidInput, "match " + std::to_string(i) + " is not finite");
+    }
+  }
+  auto best = bestOfHypotheses(matches, options);
+  if (!best) return best.status();
+  // The selector at the measured scale: where the noise the inliers show is well below the
+  // threshold the selector ran at, a compromise of two structures can have won at that threshold
+  // (header). Run again with the measured threshold, and keep whichever costs less at it.
+  const double measured_scale = best->final_threshold_px;
+  if (options.reselect_at_measured_scale && options.adaptive_threshold &&
+      measured_scale < kReselectionScaleRatio * options.inlier_threshold_px) {
+    RobustHomographyOptions at_scale = options;
+    at_scale.inlier_threshold_px = measured_scale;
+    at_scale.min_adaptive_threshold_px =
+        std::min(options.min_adaptive_threshold_px, measured_scale);
+    auto rerun = bestOfHypotheses(matches, at_scale);
+    if (rerun) {
+      const std::vector<double> rerun_errors = transferErrors(rerun->H, matches);
+      if (msacCost(rerun_errors, measured_scale) <
+          msacCost(transferErrors(best->H, matches), measured_scale)) {
+        rerun->msac_cost = msacCost(rerun_errors, options.inlier_threshold_px);  // as documented
+        best = std::move(rerun);
+      }
+    }
+  }
   if (options.refine_nonlinear) {
     PointMatches inliers;
     for (const int i : best->inliers) inliers.push_back(matches[static_cast<std::size_t>(i)]);
