@@ -222,13 +222,13 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
   // The selector at the measured scale: where the noise the inliers show is well below the
   // threshold the selector ran at, a compromise of two structures can have won at that threshold
   // (header). Run again with the measured threshold, and keep whichever costs less at it.
+  // (Without the adaptive threshold the measured one is inlier_threshold_px, and none runs; it is
+  // never below min_adaptive_threshold_px, so the options stay valid.)
   const double measured_scale = best->final_threshold_px;
-  if (options.reselect_at_measured_scale && options.adaptive_threshold &&
+  if (options.reselect_at_measured_scale &&
       measured_scale < kReselectionScaleRatio * options.inlier_threshold_px) {
     RobustHomographyOptions at_scale = options;
     at_scale.inlier_threshold_px = measured_scale;
-    at_scale.min_adaptive_threshold_px =
-        std::min(options.min_adaptive_threshold_px, measured_scale);
     auto rerun = bestOfHypotheses(matches, at_scale);
     if (rerun) {
       const std::vector<double> rerun_errors = transferErrors(rerun->H, matches);

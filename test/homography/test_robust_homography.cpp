@@ -3,10 +3,10 @@
 
 #include <cmath>
 #include <fstream>
-#include <sstream>
-#include <string>
 #include <random>
 #include <set>
+#include <sstream>
+#include <string>
 
 #include "homography_teach_repeat/homography/homography.h"
 #include "homography_teach_repeat/homography/robust_homography.h"
