@@ -50,6 +50,7 @@ RouteDriver::RouteDriver(const ros::NodeHandle& nh, const ros::NodeHandle& priva
   const double rate = readParameter(private_nh, "control_rate", 20.0);
   start_delay_ = std::max(0.0, readParameter(private_nh, "start_delay", 0.0));
   finish_service_ = readParameter<std::string>(private_nh, "finish_service", "");
+  ready_service_ = readParameter<std::string>(private_nh, "ready_service", finish_service_);
   exit_when_done_ = readParameter(private_nh, "exit_when_done", false);
   if (!(rate > 0.0)) throw std::runtime_error("parameter '" + private_nh.resolveName("control_rate") + "' must be > 0");
   readParameters(private_nh, [&] {
@@ -73,14 +74,14 @@ void RouteDriver::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 
 void RouteDriver::onTimer(const ros::TimerEvent&) {
   if (done_) return;
-  if (!finish_service_.empty() && !finisher_ready_) {
+  if (!ready_service_.empty() && !recorder_ready_) {
     // The node that records (teach_node) is ready once it offers its finish service: it may first
     // load a map and build its place index, and a drive begun before would go unrecorded.
-    if (!ros::service::exists(finish_service_, false)) {
-      ROS_INFO_THROTTLE(5.0, "route_driver: waiting for '%s' before driving", finish_service_.c_str());
+    if (!ros::service::exists(ready_service_, false)) {
+      ROS_INFO_THROTTLE(5.0, "route_driver: waiting for '%s' before driving", ready_service_.c_str());
       return;
     }
-    finisher_ready_ = true;
+    recorder_ready_ = true;
     start_after_ = ros::Time::now() + ros::Duration(start_delay_);
   }
   if (start_after_.isZero()) start_after_ = ros::Time::now();  // sim time had not started

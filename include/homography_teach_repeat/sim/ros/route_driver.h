@@ -8,8 +8,10 @@
 // Parameters: waypoints (list of [x, y] in the odom frame, required), linear_speed [m/s],
 //             angular_speed [rad/s], heading_gain [1/s], position_tolerance [m],
 //             turn_in_place_angle [rad], control_rate [Hz], finish_service (string, "" = none),
-//             start_delay [s] (wait before driving; with finish_service counted from when that
-//             service exists: the teach node is ready, its map and place index loaded),
+//             ready_service (string, default finish_service: drive only once this service exists,
+//             e.g. /teach_node/finish when a test calls it itself: the teach node is ready, its map
+//             and place index loaded), start_delay [s] (wait before driving, counted from when
+//             ready_service exists),
 //             final_yaw [rad] (optional: turn in place to it after the last waypoint),
 //             exit_when_done (bool: shut down after the last waypoint, for scripts)
 #pragma once
@@ -38,9 +40,10 @@ class RouteDriver {
   std::optional<WaypointDriver> driver_;
   std::optional<Pose2D> pose_;
   std::string finish_service_;
+  std::string ready_service_;  // "" = start without waiting for a service
   double start_delay_ = 0.0;  // [s]
   ros::Time start_after_;
-  bool finisher_ready_ = false;  // finish_service exists (always true without one)
+  bool recorder_ready_ = false;  // ready_service exists (always true without one)
   bool done_ = false;
   bool exit_when_done_ = false;
   ros::Subscriber odometry_subscriber_;
