@@ -144,7 +144,7 @@ TEST_F(KeyframeShiftHeadingTest, TheFilterModesTakeTheShiftHeadingWhereNothingEl
     auto switched = RepeatPipeline::create(route(), fast_hd);
     ASSERT_TRUE(switched.isOk());
     ASSERT_TRUE(switched->reconfigure(options.localization).isOk());
-    // (Shorter drives where the first frames decide: under the sanitizers a frame takes ~0.5 s.)
+    // (Shorter drives where the first frames decide: under the sanitizers a frame takes ~0.3 s.)
     EXPECT_GE(driveWithBiasedOdometry(*switched, "shift", 6).fixes, 5);
 
     options.shift_heading = false;
