@@ -75,8 +75,8 @@ void RouteDriver::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 void RouteDriver::onTimer(const ros::TimerEvent&) {
   if (done_) return;
   if (!ready_service_.empty() && !recorder_ready_) {
-    // The node that records (teach_node) is ready once it offers its finish service: it may first
-    // load a map and build its place index, and a drive begun before would go unrecorded.
+    // The node that records (teach_node) is ready once it offers ready_service (its finish service):
+    // it may first load a map and build its place index, and a drive begun before would go unrecorded.
     if (!ros::service::exists(ready_service_, false)) {
       ROS_INFO_THROTTLE(5.0, "route_driver: waiting for '%s' before driving", ready_service_.c_str());
       return;
