@@ -291,10 +291,9 @@ void KeyframeStore::measurePlaneAgreement(const CameraMount& mount, const Pinhol
 
 void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
                                           const RepeatOptions& options) {
-  // Planes that agree to within this [rad] are one surface seen from both keyframes, and a fix's
-  // error grows with the camera's displacement as at the neighbours; a mixture of road and
-  // facades at a corner (KITTI 07: 0.1-0.5 rad, the straights 0.02-0.04) gives fixes whose error
-  // between the keyframes the neighbours do not show, and keeps the plane's term (docs/math.md §3.10).
+  // Planes within this [rad] are one surface, and a fix's error grows with the displacement as at
+  // the neighbours; at a corner's mixture of road and facades (KITTI 07: 0.1-0.5 rad, the straights
+  // 0.02-0.04) one neighbour misses the other side's error: kept there from both (docs/math.md §3.10).
   constexpr double kAgreeingPlanes = 0.1;
   const int n = size();
   // Each keyframe's stored features serve both its neighbours: read once, dropped once both used
@@ -312,7 +311,7 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
   for (int k = 0; k < n; ++k) {
     stored.erase(stored.begin(), stored.lower_bound(k - 1));
     KeyframeReference& reference = keyframes_[static_cast<std::size_t>(k)];
-    if (!reference.plane || !(reference.plane_normal_sigma_rad < kAgreeingPlanes)) continue;
+    if (!reference.plane) continue;
     Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
     int measured = 0;
     std::array<std::optional<std::pair<double, double>>, 2> heading_error_at;  // (d, e_θ) before, after
@@ -337,7 +336,8 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
       ++measured;
       heading_error_at[j > k ? 1 : 0] = std::make_pair(d, e(2));
     }
-    if (measured > 0) reference.neighbour_fix_error_per_m2 = Eigen::Matrix3d(sum / measured);
+    if (measured == 0 || (measured == 1 && !(reference.plane_normal_sigma_rad < kAgreeingPlanes))) continue;
+    reference.neighbour_fix_error_per_m2 = Eigen::Matrix3d(sum / measured);
     if (heading_error_at[0] && heading_error_at[1]) {
       const auto [d_before, e_before] = *heading_error_at[0];
       const auto [d_after, e_after] = *heading_error_at[1];

@@ -558,6 +558,32 @@ TEST_F(KeyframeStoreOnAWall, EachKeyframesFixErrorIsMeasuredAtItsNeighbours) {
   for (int k = 0; k < n; ++k) EXPECT_FALSE(unmeasured->at(k).neighbour_fix_error_per_m2) << k;
 }
 
+// At a corner (docs/math.md §3.10) a plane its neighbours disagree with (σ_N of 0.1 rad or more)
+// has its fix's error counted only where both neighbours relocalize against it, which brackets the
+// frames on both its sides: keyframe 2, between two planes turned 0.2 rad, has both and its own
+// exact plane's small error; keyframe 0, the route's end beside a turned plane, has one neighbour
+// and keeps the plane's term.
+TEST_F(KeyframeStoreOnAWall, ACornersFixErrorCountsOnlyFromBothSides) {
+  Route route = taught_;
+  turnAboutTheVertical(&*route.keyframes[1].plane, 0.2);
+  turnAboutTheVertical(&*route.keyframes[3].plane, 0.2);
+  RepeatOptions options;
+  options.mode = RepeatMode::kFastHd;
+  options.plane_sigma_from_neighbours = true;
+  options.plane_feature_tolerance_px = 0.0;  // the planes alone
+  const auto store = KeyframeStore::load(route, options);
+  ASSERT_TRUE(store.isOk()) << store.status().toString();
+  EXPECT_GE(store->at(2).plane_normal_sigma_rad, 0.1);
+  ASSERT_TRUE(store->at(2).neighbour_fix_error_per_m2);
+  const Eigen::Matrix3d& b = *store->at(2).neighbour_fix_error_per_m2;
+  EXPECT_LT(std::sqrt(b(0, 0) + b(1, 1)), 0.03);
+  EXPECT_LT(std::sqrt(b(2, 2)), 0.005);
+  EXPECT_GE(store->at(0).plane_normal_sigma_rad, 0.1);
+  EXPECT_FALSE(store->at(0).neighbour_fix_error_per_m2);
+  const PlanarPoseEstimatorOptions plane_term = fixPoseOptions(store->at(0), options.pose);
+  EXPECT_EQ(plane_term.plane_normal_sigma_rad, store->at(0).plane_normal_sigma_rad);
+}
+
 // The heading floor measured with the fix's error (docs/math.md §3.8): what of the neighbours'
 // heading errors does not grow with the displacement (their errors interpolated to zero
 // displacement between the neighbour before and the one after: each keyframe's intercept), their

@@ -36,13 +36,13 @@ struct KeyframeReference {
   // The centroid of its plane features on the plane [m, camera frame] (centroidOnPlane), measured
   // with the sigmas; absent: the plane's point nearest the camera.
   std::optional<Eigen::Vector3d> plane_pivot;
-  // Where its neighbours' planes agree with it (plane_normal_sigma_rad below 0.1 rad), the error
-  // of a fix against this keyframe measured instead: its neighbours' stored images relocalized
-  // against it as the repeat does, each error (fix − taught, camera frame (x, z, θ)) over the
-  // distance between the cameras, E[e eᵀ / d²] [1, 1, rad² per m²] (measureNeighbourFixes;
-  // docs/math.md §3.10). A fix at displacement d then carries d² times it in place of the plane's
-  // term (keyframe_estimators.h: fixPoseOptions, neighbourFixCovariance). Absent: no neighbour
-  // measured, or they disagree.
+  // Where its neighbours' planes agree with it (plane_normal_sigma_rad below 0.1 rad), or both
+  // neighbours were measured, the error of a fix against this keyframe measured instead: its
+  // neighbours' stored images relocalized against it as the repeat does, each error (fix − taught,
+  // camera frame (x, z, θ)) over the distance between the cameras, E[e eᵀ / d²] [1, 1, rad² per
+  // m²] (measureNeighbourFixes; docs/math.md §3.10). A fix at displacement d then carries d² times
+  // it in place of the plane's term (keyframe_estimators.h: fixPoseOptions, neighbourFixCovariance).
+  // Absent: no neighbour measured, or one only where they disagree.
   std::optional<Eigen::Matrix3d> neighbour_fix_error_per_m2;
   // With it: its neighbours' heading errors interpolated to zero displacement [rad] where both were
   // measured (PlaneUncertainty::fix_heading_intercept_rad), and the heading floor of a fix against it,
@@ -111,7 +111,7 @@ class KeyframeStore {
   // passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount, const PinholeCamera& camera);
   // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
-  // with its own: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
+  // with its own, or (a corner) that both neighbours were measured against: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
   // and that were not reached by turning (turnedBetween), matched to its plane features and
   // localized with its plane as the fast_hd mode does (localizeAgainstPlane, checked; at least
   // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10); and where both

@@ -16,7 +16,7 @@
 //   measured_noise: {match_residual_px: 0.30,  # the keyframes' median match residual (below);
 //                    tilt_rad: 0.004}    # the std of the keyframe pairs' relative tilt (below);
 //                                        # absent: not measured (format 1-2; tilt_rad: 1-3)
-//   plane_uncertainty_method: 2          # kPlaneUncertaintyMethod of the keyframes' plane_uncertainty
+//   plane_uncertainty_method: 3          # kPlaneUncertaintyMethod of the keyframes' plane_uncertainty
 //   keyframes:
 //     - {index: 0, stamp: 12.5, pose: {x, y, yaw},        # odometry pose of base_link [m, rad]
 //        image: keyframes/000000.png, features: ..., lines: ...,
@@ -63,8 +63,9 @@ constexpr int kRouteFormatVersion = 5;
 // measureNeighbourFixes), stored with the values: raised whenever that measurement changes, so that
 // a route measured by an older build is measured again (at load, and by route_info --migrate)
 // rather than read. 2 (2026-12-05): the heading intercepts measured with the fix's error
-// (PlaneUncertainty::fix_heading_intercept_rad).
-constexpr int kPlaneUncertaintyMethod = 2;
+// (PlaneUncertainty::fix_heading_intercept_rad); 3 (2026-12-06): the fix's error also at planes
+// that disagree with their neighbours', where both neighbours relocalize against the keyframe.
+constexpr int kPlaneUncertaintyMethod = 3;
 // The largest heading floor and |PlaneUncertainty::fix_heading_intercept_rad| [rad]: what the pose
 // options' heading_sigma accepts (PlanarPoseEstimatorOptions).
 constexpr double kLargestHeadingFloorRad = 0.05;
