@@ -293,7 +293,7 @@ void KeyframeStore::measureNeighbourFixes(const Route& route, const PinholeCamer
                                           const RepeatOptions& options) {
   // Planes within this [rad] are one surface, and a fix's error grows with the displacement as at
   // the neighbours; at a corner's mixture of road and facades (KITTI 07: 0.1-0.5 rad, the straights
-  // 0.02-0.04) one neighbour misses the other side's error: kept there from both (docs/math.md §3.10).
+  // 0.02-0.04) one neighbour misses the other side's error: counted there from both (docs/math.md §3.10).
   constexpr double kAgreeingPlanes = 0.1;
   const int n = size();
   // Each keyframe's stored features serve both its neighbours: read once, dropped once both used

@@ -111,11 +111,12 @@ class KeyframeStore {
   // passed over for the next.
   void measurePlaneAgreement(const CameraMount& mount, const PinholeCamera& camera);
   // KeyframeReference::neighbour_fix_error_per_m2 of every keyframe whose neighbours' planes agree
-  // with its own, or (a corner) that both neighbours were measured against: the stored features of keyframes k ± 1 whose cameras stood at least 0.1 m away
-  // and that were not reached by turning (turnedBetween), matched to its plane features and
-  // localized with its plane as the fast_hd mode does (localizeAgainstPlane, checked; at least
-  // min_inliers inliers), against the teach run's relative pose (docs/math.md §3.10); and where both
-  // neighbours were measured, neighbour_fix_heading_intercept_rad (§3.8).
+  // with its own, or (a corner) that both neighbours were measured against: the stored features of
+  // keyframes k ± 1 whose cameras stood at least 0.1 m away and that were not reached by turning
+  // (turnedBetween), matched to its plane features and localized with its plane as the fast_hd mode
+  // does (localizeAgainstPlane, checked; at least min_inliers inliers), against the teach run's
+  // relative pose (docs/math.md §3.10); and where both neighbours were measured,
+  // neighbour_fix_heading_intercept_rad (§3.8).
   void measureNeighbourFixes(const Route& route, const PinholeCamera& camera, const CameraMount& mount,
                              const RepeatOptions& options);
   // mu: each keyframe's lines triangulated with the two keyframes on each side (line_landmarks.h).
