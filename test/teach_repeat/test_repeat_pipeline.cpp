@@ -137,6 +137,42 @@ TEST_F(RepeatPipelineTest, WithoutFollowingTheOdometryTheSearchStaysBehind) {
   EXPECT_EQ(pipeline->statistics().searches_all, 0u);
 }
 
+// fast_hd: every search starts at the keyframe nearest where the odometry has carried the robot
+// since the last pose (as hybrid's starts at the filter's prediction), not at the last pose's
+// keyframe: a robot that moved 0.6 m between two frames is matched against the keyframe it is at.
+TEST_F(RepeatPipelineTest, FastHdSearchStartsWhereTheOdometryHasCarriedTheRobot) {
+  const Route taught = route();
+  auto nearestKeyframe = [&](const Pose2D& pose) {
+    int nearest = 0;
+    for (int k = 1; k < static_cast<int>(taught.keyframes.size()); ++k) {
+      const Pose2D& at = taught.keyframes[static_cast<std::size_t>(k)].pose;
+      const Pose2D& best = taught.keyframes[static_cast<std::size_t>(nearest)].pose;
+      if (std::hypot(at.x - pose.x, at.y - pose.y) < std::hypot(best.x - pose.x, best.y - pose.y)) nearest = k;
+    }
+    return nearest;
+  };
+  for (const double follow : {5.0, 0.0}) {
+    RepeatPipelineOptions options;
+    options.localization.neighbour_search = 0;  // only the keyframe the search starts at
+    options.follow_odometry_distance = follow;
+    auto pipeline = RepeatPipeline::create(taught, options);
+    ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+    const Pose2D start = cameraAxesToRep103(pathCamera(0.0));
+    ASSERT_TRUE(pipeline->addOdometry(600.0, start).isOk());
+    const RepeatFrameResult first = pipeline->processFrame(600.0, wall_->imageAt(pathCamera(0.0)), camera());
+    ASSERT_TRUE(first.estimate) << first.status.toString();
+    EXPECT_EQ(first.estimate->keyframe, 0);
+    const Pose2D moved = cameraAxesToRep103(pathCamera(0.6));
+    const int ahead = nearestKeyframe(moved);
+    ASSERT_GE(ahead, 2);  // keyframes 0.25-0.3 m apart
+    ASSERT_TRUE(pipeline->addOdometry(600.1, moved).isOk());
+    const RepeatFrameResult second = pipeline->processFrame(600.1, wall_->imageAt(pathCamera(0.6)), camera());
+    ASSERT_TRUE(second.estimate) << follow << ": " << second.status.toString();
+    // Without following the odometry (0: never) the search stays at keyframe 0, 0.6 m behind.
+    EXPECT_EQ(second.estimate->keyframe, follow > 0.0 ? ahead : 0) << follow;
+  }
+}
+
 // The μ loop: odometry with a heading bias of 0.03 rad/m, corrected frame by frame by μ through
 // the keyframe wall's model; the filter's prediction guides the next frame's line matching and
 // moves the tracked keyframe on. The published heading stays far closer to the truth than the

@@ -64,10 +64,11 @@ struct RepeatPipelineOptions {
   // off, none with the corners' fixes).
   bool hybrid_skip_turn_keyframes = false;
   IntegrityOptions integrity;
-  // fast_hd/classic, frames without a pose (docs/reliability.md, "Lost and found"):
-  //  - the odometry since the last accepted pose moves the tracked keyframe on, so the search
-  //    follows the robot along the route (the route says where the next keyframes are) for up to
-  //    `follow_odometry_distance` [m, >= 0; 0: never] of travel;
+  // fast_hd/classic (docs/reliability.md, "Lost and found"):
+  //  - before every search, and in frames without a pose, the odometry since the last accepted
+  //    pose moves the tracked keyframe on, so the search starts at the keyframe nearest the robot
+  //    (the route says where the next keyframes are) for up to `follow_odometry_distance`
+  //    [m, >= 0; 0: never] of travel (hybrid starts at the filter's prediction);
   //  - after `search_all_after` [>= 0; 0: never] failed frames in a row, and again every that many,
   //    every keyframe is tried (a wrong tracked keyframe, a start elsewhere); the pose found still
   //    passes the odometry gate, and a failed search leaves the tracked keyframe as it was.
@@ -198,7 +199,8 @@ class RepeatPipeline {
   Expected<Pose2D> unaidedFilterPose(const Pose2D& odom);
   std::optional<Pose2D> predictedFilterPose(double stamp) const;
   void setFilterPose(const Pose2D& pose, RepeatFrameResult* result);
-  // fast_hd/classic, a frame without a pose: the tracked keyframe follows the odometry.
+  // fast_hd/classic, before a search and in a frame without a pose: the tracked keyframe follows
+  // the odometry since the last accepted pose.
   void followOdometry(const Expected<Pose2D>& odom);
   bool searchAllNow() const;
   // hybrid: whether this frame searches for a Fast-HD pose (fast_hd_retry_period).
