@@ -33,9 +33,11 @@ POSE_OFFSET_X = 0.05
 POSE_COVARIANCE = [0.0025, 0.0025, 1e-4]
 
 
-def write_bag(path, poses, state, with_estimates=False, keyframe_of=None, overconfident_keyframe=None):
+def write_bag(path, poses, state, with_estimates=False, keyframe_of=None, overconfident_keyframe=None,
+              tracked=lambda i: i % 2 == 1):
     """keyframe_of(i): the keyframe pose i was fixed against (a heading correction with its stamp;
-    None: a failed frame); overconfident_keyframe: whose poses claim a tenth of the variance."""
+    None: a failed frame); overconfident_keyframe: whose poses claim a tenth of the variance;
+    tracked(i): whether pose i's fix was tracked (its heading correction's flag)."""
     with rosbag.Bag(path, 'w') as bag:
         t = rospy.Time(1.0)
         for i, (x, y, yaw) in enumerate(poses):
@@ -64,6 +66,7 @@ def write_bag(path, poses, state, with_estimates=False, keyframe_of=None, overco
                     c.header.stamp = e.header.stamp
                     c.ok = keyframe is not None
                     c.reference_index = keyframe if keyframe is not None else -1
+                    c.tracked = tracked(i)
                     bag.write('repeat_node/heading_correction', c, t)
             t += rospy.Duration(0.1)
         bag.write('controller_node/state', String(data=state), t)
@@ -124,6 +127,21 @@ def main():
             want = 10.0 if k == 1 else 1.0
             if abs(entry['nees_mean'] - want) > 1e-6:
                 failures.append('keyframe %d: NEES mean %s, expected %s' % (k, entry['nees_mean'], want))
+    # By the source of the fix: odd poses tracked, even ones detected (keyframe 1's NEES 10 each).
+    sources = (metrics['localization'] or {}).get('by_fix_source') or {}
+    for name, wanted in (('detected', 0), ('tracked', 1)):
+        nees = [10.0 if keyframe_of(i) == 1 else 1.0 for i in range(1, len(lap))
+                if keyframe_of(i) is not None and i % 2 == wanted]
+        got = sources.get(name) or {}
+        if got.get('poses') != len(nees) or abs(got.get('nees_mean', -1.0) - sum(nees) / len(nees)) > 1e-6:
+            failures.append('poses of %s fixes: %s, expected %d with NEES mean %.3f'
+                            % (name, got, len(nees), sum(nees) / len(nees)))
+    if 'poses by the source of their fix: detected %d' % sum(
+            1 for i in range(1, len(lap)) if keyframe_of(i) is not None and i % 2 == 0) not in stdout:
+        failures.append('the summary does not count the poses by the source of their fix: %r' % stdout[-400:])
+    if localization is not None and localization.get('by_fix_source', 'absent') is not None:
+        failures.append('a bag without heading corrections: by_fix_source %s, not null'
+                        % localization.get('by_fix_source'))
     named = 'claim too little (NEES mean above 6 over 10 or more poses): 1 (10.0 over 10)'
     if named not in stdout:
         failures.append('the summary does not name keyframe 1 as claiming too little: %r' % stdout[-400:])

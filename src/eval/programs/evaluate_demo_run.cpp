@@ -25,7 +25,11 @@
 // truth at the pose's stamp (interpolated), and whether its covariance is honest
 // (pose_consistency.h): {"poses", "position_err_rms_m", "heading_err_rms_deg", "position_sigma_rms_m",
 // "heading_sigma_rms_deg", "nees_mean", "nees_median", "nees_fraction_above_chi2_95",
-// "unscored_poses", "integrity", "by_keyframe"}; null when the bag has no pose. "by_keyframe": the
+// "unscored_poses", "integrity", "by_keyframe", "by_fix_source"}; null when the bag has no pose.
+// "by_fix_source": the same scores for the frames whose fix came from features detected in the
+// frame ("detected") and from the previous frame's matches followed by optical flow ("tracked":
+// the heading correction's `tracked`), {"detected": {"poses", "nees_mean", "nees_median",
+// "nees_fraction_above_chi2_95"} or null, "tracked": ...}; null without heading corrections. "by_keyframe": the
 // same scores per keyframe the pose was fixed against (repeat_node/heading_correction of the same
 // frame: reference_index), [{"keyframe", "poses", "nees_mean", "nees_fraction_above_chi2_95"}], by
 // keyframe; null without heading corrections. A covariance whose mean is honest can still claim too
@@ -87,6 +91,7 @@ struct Run {
   std::vector<StampedEstimate> estimates;  // repeat_node/pose
   std::map<double, int> integrity;         // repeat_node/integrity: level by stamp
   std::map<double, int> keyframe;          // repeat_node/heading_correction: the frame's keyframe by stamp
+  std::map<double, bool> tracked;          // the same: whether the frame's fix was tracked
   std::string last_state;
   // planar_world_sim's `people` markers: per stamp, each body's pose and footprint (depth, width).
   struct Body {
@@ -184,6 +189,7 @@ Run readRun(const std::string& path) {
     } else if (const auto correction = m.instantiate<htr::HeadingCorrectionStamped>()) {
       if (correction->ok && correction->reference_index >= 0) {
         run.keyframe[correction->header.stamp.toSec()] = correction->reference_index;
+        run.tracked[correction->header.stamp.toSec()] = correction->tracked;
       }
     } else if (const auto integrity = m.instantiate<htr::Integrity>()) {
       run.integrity[integrity->header.stamp.toSec()] = integrity->level;
@@ -247,6 +253,7 @@ nlohmann::json scoreLocalization(const Run& run) {
   for (std::size_t i = 0; i < run.truth.size(); ++i) truth.add(run.truth_stamps[i], run.truth[i]);
   htr::PoseConsistency consistency;
   std::map<int, htr::PoseConsistency> by_keyframe;  // the frame's keyframe: its heading correction's stamp
+  htr::PoseConsistency by_source[2];                 // the frame's fix detected (0) or tracked (1)
   std::size_t unscored = 0;
   for (const StampedEstimate& e : run.estimates) {
     const auto at = truth.poseAt(e.stamp);
@@ -256,6 +263,8 @@ nlohmann::json scoreLocalization(const Run& run) {
     }
     const auto keyframe = run.keyframe.find(e.stamp);
     if (keyframe != run.keyframe.end()) (void)by_keyframe[keyframe->second].add(e.pose, e.covariance, *at);
+    const auto tracked = run.tracked.find(e.stamp);
+    if (tracked != run.tracked.end()) (void)by_source[tracked->second ? 1 : 0].add(e.pose, e.covariance, *at);
   }
   const auto summary = consistency.summary();
   if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
@@ -280,6 +289,20 @@ nlohmann::json scoreLocalization(const Run& run) {
           {"unscored_poses", unscored}};
   localization["integrity"] = scoreIntegrity(run, truth);
   localization["by_keyframe"] = keyframes;
+  nlohmann::json sources = nullptr;
+  if (!run.tracked.empty()) {
+    sources = nlohmann::json::object();
+    for (int source = 0; source < 2; ++source) {
+      const auto scores = by_source[source].summary();
+      sources[source == 0 ? "detected" : "tracked"] =
+          scores ? nlohmann::json({{"poses", scores->samples},
+                                   {"nees_mean", scores->nees_mean},
+                                   {"nees_median", scores->nees_median},
+                                   {"nees_fraction_above_chi2_95", scores->fraction_above_chi2_95}})
+                 : nlohmann::json(nullptr);
+    }
+  }
+  localization["by_fix_source"] = sources;
   return localization;
 }
 
@@ -447,6 +470,23 @@ int main(int argc, char** argv) {
         std::printf("keyframes whose poses claim too little (NEES mean above %g over %zu or more poses): %s\n",
                     kClaimsTooLittleNees, kClaimsTooLittlePoses,
                     claiming_too_little.empty() ? "none" : claiming_too_little.c_str());
+      }
+      if (localization["by_fix_source"].is_object()) {
+        std::string line;
+        for (const char* source : {"detected", "tracked"}) {
+          const auto& scores = localization["by_fix_source"][source];
+          char entry[128];
+          if (scores.is_null()) {
+            std::snprintf(entry, sizeof(entry), "%s%s none", line.empty() ? "" : "; ", source);
+          } else {
+            std::snprintf(entry, sizeof(entry), "%s%s %zu, NEES mean %.1f (median %.1f), %.0f %% beyond",
+                          line.empty() ? "" : "; ", source, scores["poses"].get<std::size_t>(),
+                          scores["nees_mean"].get<double>(), scores["nees_median"].get<double>(),
+                          100.0 * scores["nees_fraction_above_chi2_95"].get<double>());
+          }
+          line += entry;
+        }
+        std::printf("poses by the source of their fix: %s\n", line.c_str());
       }
       if (localization["integrity"].is_object()) {
         const auto& integrity = localization["integrity"];
