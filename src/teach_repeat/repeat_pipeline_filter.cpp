@@ -51,7 +51,11 @@ Status RepeatPipeline::fuseHybridPose(double stamp, const Expected<Pose2D>& odom
     if (!aligned.isOk()) return aligned;
     integrity_.addFix(stamp, true, std::nullopt, 0, estimate->inliers);
   } else {
-    const auto nis = filter_.correctWithPose(estimate->base_pose, estimate->covariance, *odom, estimate->model_covariance);
+    // What the filter holds already: a fix's model term (the keyframe's plane, every fix against it
+    // shares it); a tracked fix's matches are the previous detection's, their current points
+    // followed by optical flow, so its pixel noise is that frame's too: the whole fix (§7.1).
+    const Eigen::Matrix3d& shared = estimate->tracked ? estimate->covariance : estimate->model_covariance;
+    const auto nis = filter_.correctWithPose(estimate->base_pose, estimate->covariance, *odom, shared);
     const auto innovation = filter_.takeInnovation();
     if (!nis) {
       // Refused by the filter's gate: the pose disagrees with it beyond what both admit.

@@ -2,6 +2,8 @@
 // μ loop (localizer -> filter -> prediction -> localizer) included.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -382,6 +384,32 @@ TEST_F(RepeatPipelineTest, HybridFusesFastHdAndMuInOneFilter) {
 // says the robot now is, and the pose is OK again.
 // hybrid by default (hybrid_fuse_both false): a μ fix only in a frame without a Fast-HD pose; beside
 // a pose it is measured through the same plane, and the filter would take its error as independent.
+// hybrid: a tracked fix (the previous frame's matches followed by optical flow) carries that
+// frame's matching errors on: it is not a new measurement of them, so the filter claims no less
+// than the tracked fix itself does (docs/math.md §7.1).
+TEST_F(RepeatPipelineTest, HybridClaimsNoLessThanATrackedFix) {
+  RepeatPipelineOptions options;
+  options.localization.mode = RepeatMode::kHybrid;
+  auto pipeline = RepeatPipeline::create(route(), options);
+  ASSERT_TRUE(pipeline.isOk()) << pipeline.status().toString();
+  int tracked = 0, detected = 0;
+  driveWithBiasedOdometry(*pipeline, [&](int step, const Pose2D&, const Pose2D&, const RepeatFrameResult& result) {
+    ASSERT_TRUE(result.pose && result.covariance) << step << ": " << result.status.toString();
+    if (!result.estimate || !result.estimate->has_pose || result.fixes.find("fast_hd") == std::string::npos) return;
+    const Eigen::Matrix3d lacking = result.estimate->covariance - *result.covariance;
+    const double largest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(lacking).eigenvalues().maxCoeff();
+    const double scale = result.estimate->covariance.diagonal().maxCoeff();
+    if (result.estimate->tracked) {
+      ++tracked;
+      EXPECT_LE(largest, 1e-9 * scale) << step;  // P ⪰ R
+    } else {
+      ++detected;
+    }
+  });
+  EXPECT_GE(tracked, 3);
+  EXPECT_GE(detected, 3);
+}
+
 TEST_F(RepeatPipelineTest, HybridTakesMuOnlyWhereThereIsNoPose) {
   RepeatPipelineOptions options;
   options.localization.mode = RepeatMode::kHybrid;
