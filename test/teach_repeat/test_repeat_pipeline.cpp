@@ -378,12 +378,6 @@ TEST_F(RepeatPipelineTest, HybridFusesFastHdAndMuInOneFilter) {
   EXPECT_LT(filter_error, 0.2 * odometry_error);
 }
 
-// hybrid, the camera covered: the filter carries the pose on odometry (its covariance growing),
-// the integrity turns DEGRADED when no fix came for degraded_time_without_fix and LOST (no pose)
-// beyond max_unaided_distance; uncovered, the search finds the route again where the odometry
-// says the robot now is, and the pose is OK again.
-// hybrid by default (hybrid_fuse_both false): a μ fix only in a frame without a Fast-HD pose; beside
-// a pose it is measured through the same plane, and the filter would take its error as independent.
 // hybrid: a tracked fix (the previous frame's matches followed by optical flow) carries that
 // frame's matching errors on: it is not a new measurement of them, so the filter claims no less
 // than the tracked fix itself does (docs/math.md §7.1).
@@ -410,6 +404,8 @@ TEST_F(RepeatPipelineTest, HybridClaimsNoLessThanATrackedFix) {
   EXPECT_GE(detected, 3);
 }
 
+// hybrid by default (hybrid_fuse_both false): a μ fix only in a frame without a Fast-HD pose; beside
+// a pose it is measured through the same plane, and the filter would take its error as independent.
 TEST_F(RepeatPipelineTest, HybridTakesMuOnlyWhereThereIsNoPose) {
   RepeatPipelineOptions options;
   options.localization.mode = RepeatMode::kHybrid;
@@ -425,6 +421,10 @@ TEST_F(RepeatPipelineTest, HybridTakesMuOnlyWhereThereIsNoPose) {
   EXPECT_GE(fast_hd_fixes, 12);
 }
 
+// hybrid, the camera covered: the filter carries the pose on odometry (its covariance growing),
+// the integrity turns DEGRADED when no fix came for degraded_time_without_fix and LOST (no pose)
+// beyond max_unaided_distance; uncovered, the search finds the route again where the odometry
+// says the robot now is, and the pose is OK again.
 TEST_F(RepeatPipelineTest, HybridBridgesACoveredCameraAndRecovers) {
   RepeatPipelineOptions options;
   options.localization.mode = RepeatMode::kHybrid;
