@@ -164,9 +164,8 @@ RepeatFrameResult RepeatPipeline::processFrame(double stamp, const Expected<cv::
   // The odometry at the image stamp is looked up once for every pose of this frame.
   const auto odom_near_image = odometry_.poseNear(stamp, kOdometryLag);
   // fast_hd/classic: the search starts at the keyframe nearest where the odometry has carried the
-  // robot since the last pose, as hybrid's starts at the filter's prediction. (Starting at the last
-  // pose's keyframe, KITTI 07 every other frame, ~0.7 m apart, took a keyframe 1.4 m behind the
-  // robot where one 0.7 m ahead was taught: fewer inliers, fixes claiming 3 mm for 2 cm errors.)
+  // robot since the last pose, as hybrid's starts at the filter's prediction, not at the last
+  // pose's keyframe (docs/reliability.md, "Lost and found").
   if (!mu) followOdometry(odom_near_image);
   bool search_all = false;
   const int tracked_before = localizer_.trackedKeyframe();
