@@ -90,8 +90,13 @@ struct Run {
   std::vector<double> truth_stamps;
   std::vector<StampedEstimate> estimates;  // repeat_node/pose
   std::map<double, int> integrity;         // repeat_node/integrity: level by stamp
-  std::map<double, int> keyframe;          // repeat_node/heading_correction: the frame's keyframe by stamp
-  std::map<double, bool> tracked;          // the same: whether the frame's fix was tracked
+  // repeat_node/heading_correction, by stamp: the keyframe the frame's fix was against, and whether
+  // the fix was tracked.
+  struct Fix {
+    int keyframe;
+    bool tracked;
+  };
+  std::map<double, Fix> fixes;
   std::string last_state;
   // planar_world_sim's `people` markers: per stamp, each body's pose and footprint (depth, width).
   struct Body {
@@ -188,8 +193,7 @@ Run readRun(const std::string& path) {
       run.truth_stamps.push_back(odom->header.stamp.toSec());
     } else if (const auto correction = m.instantiate<htr::HeadingCorrectionStamped>()) {
       if (correction->ok && correction->reference_index >= 0) {
-        run.keyframe[correction->header.stamp.toSec()] = correction->reference_index;
-        run.tracked[correction->header.stamp.toSec()] = correction->tracked;
+        run.fixes[correction->header.stamp.toSec()] = {correction->reference_index, correction->tracked != 0};
       }
     } else if (const auto integrity = m.instantiate<htr::Integrity>()) {
       run.integrity[integrity->header.stamp.toSec()] = integrity->level;
@@ -261,14 +265,14 @@ nlohmann::json scoreLocalization(const Run& run) {
       ++unscored;
       continue;
     }
-    const auto keyframe = run.keyframe.find(e.stamp);
-    if (keyframe != run.keyframe.end()) (void)by_keyframe[keyframe->second].add(e.pose, e.covariance, *at);
-    const auto tracked = run.tracked.find(e.stamp);
-    if (tracked != run.tracked.end()) (void)by_source[tracked->second ? 1 : 0].add(e.pose, e.covariance, *at);
+    const auto fix = run.fixes.find(e.stamp);
+    if (fix == run.fixes.end()) continue;
+    (void)by_keyframe[fix->second.keyframe].add(e.pose, e.covariance, *at);
+    (void)by_source[fix->second.tracked ? 1 : 0].add(e.pose, e.covariance, *at);
   }
   const auto summary = consistency.summary();
   if (!summary) return {{"poses", run.estimates.size()}, {"unscored_poses", unscored}};
-  nlohmann::json keyframes = run.keyframe.empty() ? nlohmann::json(nullptr) : nlohmann::json::array();
+  nlohmann::json keyframes = run.fixes.empty() ? nlohmann::json(nullptr) : nlohmann::json::array();
   for (const auto& [keyframe, scores] : by_keyframe) {
     const auto of_keyframe = scores.summary();
     if (!of_keyframe) continue;
@@ -290,7 +294,7 @@ nlohmann::json scoreLocalization(const Run& run) {
   localization["integrity"] = scoreIntegrity(run, truth);
   localization["by_keyframe"] = keyframes;
   nlohmann::json sources = nullptr;
-  if (!run.tracked.empty()) {
+  if (!run.fixes.empty()) {
     sources = nlohmann::json::object();
     for (int source = 0; source < 2; ++source) {
       const auto scores = by_source[source].summary();
