@@ -1,6 +1,7 @@
 #include "homography_teach_repeat/fast_hd/fast_hd.h"
 #include "homography_teach_repeat/fast_hd/planar_pose_estimator.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -33,6 +34,9 @@ void PlanarPoseEstimatorOptions::validate() const {
   }
   if (!std::isfinite(common_shift_sigma_px) || common_shift_sigma_px < 0.0 || common_shift_sigma_px > 5.0) {
     throw std::invalid_argument("common_shift_sigma must be in [0, 5] px, got " + std::to_string(common_shift_sigma_px));
+  }
+  if (!(residual_sigma_gain >= 0.0 && residual_sigma_gain <= 10.0)) {
+    throw std::invalid_argument("residual_sigma_gain must be in [0, 10], got " + std::to_string(residual_sigma_gain));
   }
   if (refinement_max_iterations < 1) {
     throw std::invalid_argument("refinement_max_iterations must be >= 1");
@@ -102,8 +106,15 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   if (!dlt) return dlt.status();
   const auto solution = solveFastHd(dlt->H_unscaled, camera, plane);
   if (!solution) return solution.status();
+  const Eigen::Matrix3d H = dlt->H_unscaled / dlt->H_unscaled.norm();
+  double sum = 0.0;
+  for (const PointMatch& match : matches) sum += std::pow(transferError(H, match), 2);
+  const double rms = std::sqrt(sum / static_cast<double>(matches.size()));
+  const double sigma = options.residual_sigma_gain > 0.0
+                           ? std::max(options.residual_sigma_gain * rms, options.pixel_sigma_px)
+                           : options.pixel_sigma_px;
   Eigen::Matrix3d reference_noise_covariance;
-  const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, options.pixel_sigma_px,
+  const auto covariance = fastHdCovariance(*dlt, matches, camera, plane, sigma,
                                            /*second_order=*/true, &reference_noise_covariance);
   if (!covariance) return covariance.status();
   const auto plane_covariance = planeUncertaintyCovariance(dlt->H_unscaled, camera, plane, options.plane_normal_sigma_rad,
@@ -120,17 +131,14 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   estimate.covariance = estimate.fast_hd_covariance;
   estimate.model_covariance = model_covariance;
   estimate.reference_noise_covariance = reference_noise_covariance;
-  estimate.H = dlt->H_unscaled / dlt->H_unscaled.norm();
+  estimate.H = H;
   estimate.inliers.resize(matches.size());
-  double sum = 0.0;
-  for (std::size_t i = 0; i < matches.size(); ++i) {
-    estimate.inliers[i] = static_cast<int>(i);
-    sum += std::pow(transferError(estimate.H, matches[i]), 2);
-  }
-  estimate.rms_transfer_error_px = std::sqrt(sum / static_cast<double>(matches.size()));
+  for (std::size_t i = 0; i < matches.size(); ++i) estimate.inliers[i] = static_cast<int>(i);
+  estimate.rms_transfer_error_px = rms;
+  estimate.pixel_sigma_px = sigma;
   if (options.refine) {
     PoseRefinementOptions refinement;
-    refinement.sigma_px = options.pixel_sigma_px;
+    refinement.sigma_px = sigma;
     refinement.max_iterations = options.refinement_max_iterations;
     refinement.tilt_sigma_rad = options.tilt_sigma_rad;
     refinement.plane_sensitivity = options.plane_normal_sigma_rad > 0.0 || options.plane_distance_sigma > 0.0;

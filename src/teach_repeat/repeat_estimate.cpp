@@ -68,6 +68,7 @@ void RepeatOptions::validate() const {
 RepeatOptions withMeasuredNoise(RepeatOptions options, const Route& route) {
   const std::optional<double> residual = routeMatchResidual(route);
   if (residual && options.match_residual_gain > 0.0) options.pose.pixel_sigma_px = options.match_residual_gain * *residual;
+  options.pose.residual_sigma_gain = options.pixel_noise_per_fix ? options.match_residual_gain : 0.0;
   const std::optional<double> tilt = routeTiltSigma(route);
   if (tilt && options.measured_tilt_gain > 0.0) options.pose.tilt_sigma_rad = options.measured_tilt_gain * *tilt;
   return options;
@@ -122,6 +123,9 @@ std::string describeMeasuredNoise(const RepeatOptions& options, const Route& rou
   std::string text = describeOne("pixel sigma", used.pose.pixel_sigma_px, "px", "match_residual_gain",
                                  options.match_residual_gain, routeMatchResidual(route), "match residual",
                                  route.info.match_noise_measured, "pixel_sigma");
+  if (used.pose.residual_sigma_gain > 0.0) {
+    text += " (a fix's own: match_residual_gain x its inliers' residual where more; pixel_noise_per_fix)";
+  }
   text += "; " + describeOne("tilt sigma", used.pose.tilt_sigma_rad, "rad", "measured_tilt_gain",
                              options.measured_tilt_gain, routeTiltSigma(route), "tilt", route.info.tilt_measured,
                              "tilt_sigma");

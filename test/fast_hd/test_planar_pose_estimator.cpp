@@ -287,3 +287,53 @@ TEST(PlanarPoseEstimator, AHeightChangeIsInThePlaneModel) {
   EXPECT_LT(rms(estimate->height_offset), 1e-4);
   EXPECT_GT(rms(0.0), 3.0);
 }
+
+// A fix's pixel σ from its own inliers (residual_sigma_gain, docs/math.md §3.9): matches with 1 px
+// of noise against a configured σ of 0.2 px claim the gain times their rms transfer error, as if
+// that σ were configured (the covariance about that σ's square over 0.2's larger); matches that
+// fit more closely than the configured σ keep it (an exact fit claims what the keyframe's σ says,
+// not nothing). 0 is the configured σ alone; outside [0, 10] throws.
+TEST(PlanarPoseEstimator, APixelSigmaFromTheFixsOwnResidualWhereItIsLarger) {
+  PointMatches noisy = exactMatches(200, 7);
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (PointMatch& m : noisy) m.current += Eigen::Vector2d(noise(rng), noise(rng));
+  PlanarPoseEstimatorOptions options;
+  options.pixel_sigma_px = 0.2;
+  options.common_shift_sigma_px = 0.0;
+  options.refine = false;  // the closed form's covariance is linear in σ²
+  const auto configured = estimatePlanarPoseFromInliers(noisy, mathCamera(), kPlane, options);
+  options.residual_sigma_gain = 0.75;
+  EXPECT_NO_THROW(options.validate());
+  const auto measured = estimatePlanarPoseFromInliers(noisy, mathCamera(), kPlane, options);
+  ASSERT_TRUE(configured.isOk()) << configured.status().toString();
+  ASSERT_TRUE(measured.isOk()) << measured.status().toString();
+  EXPECT_DOUBLE_EQ(configured->pixel_sigma_px, 0.2);
+  // One image's noise of 1 px per coordinate: a transfer error of about √2 px, less the fit's share.
+  EXPECT_NEAR(measured->rms_transfer_error_px, std::sqrt(2.0), 0.15);
+  EXPECT_DOUBLE_EQ(measured->pixel_sigma_px, 0.75 * measured->rms_transfer_error_px);
+  expectPoseNear(measured->pose, configured->pose, 1e-12);
+  // Exactly the estimate with that σ configured, and more than with 0.2 px.
+  PlanarPoseEstimatorOptions as_configured = options;
+  as_configured.residual_sigma_gain = 0.0;
+  as_configured.pixel_sigma_px = measured->pixel_sigma_px;
+  const auto same = estimatePlanarPoseFromInliers(noisy, mathCamera(), kPlane, as_configured);
+  ASSERT_TRUE(same.isOk()) << same.status().toString();
+  EXPECT_LT((measured->covariance - same->covariance).cwiseAbs().maxCoeff(), 1e-15);
+  const double ratio = std::pow(measured->pixel_sigma_px / 0.2, 2);
+  EXPECT_NEAR(measured->covariance(0, 0) / configured->covariance(0, 0), ratio, 0.05 * ratio);
+  EXPECT_NEAR(measured->covariance(2, 2) / configured->covariance(2, 2), ratio, 0.05 * ratio);
+
+  options.refine = true;
+  const auto exact = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  options.residual_sigma_gain = 0.0;
+  const auto exact_configured = estimatePlanarPoseFromInliers(exactMatches(30, 1), mathCamera(), kPlane, options);
+  ASSERT_TRUE(exact.isOk()) << exact.status().toString();
+  ASSERT_TRUE(exact_configured.isOk()) << exact_configured.status().toString();
+  EXPECT_DOUBLE_EQ(exact->pixel_sigma_px, 0.2);
+  EXPECT_LT((exact->covariance - exact_configured->covariance).cwiseAbs().maxCoeff(), 1e-18);
+  for (const double bad : {-0.1, 10.5, std::nan("")}) {
+    options.residual_sigma_gain = bad;
+    EXPECT_THROW(options.validate(), std::invalid_argument) << bad;
+  }
+}

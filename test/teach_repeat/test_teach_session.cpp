@@ -140,6 +140,14 @@ TEST(TeachSession, MeasuresTheRoutesMatchNoise) {
   EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.pixel_sigma_px, 1.5 * residual);
   EXPECT_NE(describeMeasuredNoise(repeat, *route).find("match_residual_gain 1.50"), std::string::npos)
       << describeMeasuredNoise(repeat, *route);
+  // Each fix's own residual with the same gain (pixel_noise_per_fix, docs/math.md §3.9).
+  EXPECT_TRUE(repeat.pixel_noise_per_fix);
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.residual_sigma_gain, 1.5);
+  EXPECT_NE(describeMeasuredNoise(repeat, *route).find("pixel_noise_per_fix"), std::string::npos);
+  repeat.pixel_noise_per_fix = false;
+  EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.residual_sigma_gain, 0.0);
+  EXPECT_EQ(describeMeasuredNoise(repeat, *route).find("pixel_noise_per_fix"), std::string::npos);
+  repeat.pixel_noise_per_fix = true;
   repeat.pose.tilt_sigma_rad = 0.03;
   repeat.measured_tilt_gain = 2.0;
   EXPECT_DOUBLE_EQ(withMeasuredNoise(repeat, *route).pose.tilt_sigma_rad, 2.0 * tilt);

@@ -21,6 +21,13 @@ namespace homography_teach_repeat {
 struct PlanarPoseEstimatorOptions {
   RobustHomographyOptions robust;
   double pixel_sigma_px = 0.5;  // std of every match coordinate, for both covariances
+  // > 0: the pixel σ of this estimate measured from its own matches too (docs/math.md §3.9): this
+  // gain [0-10] times the rms transfer error r of the inliers about their DLT homography (the
+  // statistic the teach run measures between keyframes, so the same gain) where that is more than
+  // pixel_sigma_px. A view matched less closely than the keyframe's neighbours (a second surface
+  // near the plane, features followed by optical flow over frames) claims accordingly more; one
+  // matched more closely does not claim less (its error is not all pixel noise). 0: pixel_sigma_px.
+  double residual_sigma_gain = 0.0;
   bool refine = true;           // run the 3-DoF refinement after Fast-HD
   int refinement_max_iterations = 20;
   // The keyframe plane is itself an estimate (docs/math.md §3.6): the std of its normal's direction
@@ -70,7 +77,8 @@ struct PlanarPoseEstimate {
   Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();  // the refinement's current-camera tilt
   double height_offset = 0.0;  // the refinement's camera height offset Cy [m] (0 unless refined)
   std::vector<int> inliers;                          // indices into the input matches
-  double rms_transfer_error_px = 0.0;
+  double rms_transfer_error_px = 0.0;  // of the inliers about H [px]
+  double pixel_sigma_px = 0.0;         // the σ both covariances used (options, residual_sigma_gain)
 };
 
 // The pose covariance that the plane's uncertainty adds (see the options above) for the pose Fast-HD

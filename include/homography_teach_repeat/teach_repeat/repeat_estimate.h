@@ -79,6 +79,12 @@ struct RepeatOptions {
   // that include it) over the route's, within [0.5, 2] (docs/math.md §3.9): a corner's keyframe
   // matches its neighbours less closely than a straight's.
   bool pixel_noise_per_keyframe = true;
+  // fast_hd: a fix's pixel σ from its own inliers' residual about their homography where that
+  // says more than the keyframe's σ, the same gain times it (pose.residual_sigma_gain =
+  // match_residual_gain, docs/math.md §3.9): a frame matched less closely than the teach run's
+  // pairs (features followed by optical flow over frames, a second surface in view) claims
+  // accordingly more. Off, or a gain of 0: the keyframe's σ for every fix.
+  bool pixel_noise_per_fix = true;
   // fast_hd: the prior σ of the current camera's tilt (pose.tilt_sigma_rad, a nuisance pair of the
   // refinement, docs/math.md §1.10) from the route's own images: this gain times the std of the
   // relative tilt the teach run measured between its keyframes (route.h, routeTiltSigma), instead

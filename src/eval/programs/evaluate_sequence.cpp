@@ -98,6 +98,7 @@ cli::Arguments sequenceArguments() {
        {"pixel-sigma", std::to_string(repeat_defaults.pose.pixel_sigma_px)},
        {"match-residual-gain", std::to_string(repeat_defaults.match_residual_gain)},
        {"pixel-noise-per-keyframe", repeat_defaults.pixel_noise_per_keyframe ? "1" : "0"},
+       {"pixel-noise-per-fix", repeat_defaults.pixel_noise_per_fix ? "1" : "0"},
        {"plane-normal-sigma", std::to_string(repeat_defaults.pose.plane_normal_sigma_rad)},
        {"plane-distance-sigma", std::to_string(repeat_defaults.pose.plane_distance_sigma)},
        {"tilt-sigma", std::to_string(repeat_defaults.pose.tilt_sigma_rad)},
@@ -122,6 +123,7 @@ cli::Arguments sequenceArguments() {
       "  [--image-topic T] [--camera-info-topic T] [--odom-topic T] [--truth-topic T] [--base-frame F] (bag)\n"
       "  [--match-residual-gain G] (the covariance's pixel sigma: G x the teach run's match residual; 0: --pixel-sigma)\n"
       "  [--pixel-noise-per-keyframe 0|1] (each keyframe's pixel sigma scaled by its own pairs' residual)\n"
+      "  [--pixel-noise-per-fix 0|1] (each fix's pixel sigma from its own inliers' residual)\n"
       "  [--pixel-sigma PX] [--plane-normal-sigma RAD] [--plane-distance-sigma FRACTION] [--plane-sigma-from-neighbours 0|1] (repeat covariance)\n"
       "  [--max-tracked-frames N] (frames followed by optical flow between detections; 0 for sparse views such as Strecha)\n"
       "  [--background-detection 0|1] (the features of a tracked frame detected on a worker thread meanwhile)\n"
@@ -172,6 +174,7 @@ int main(int argc, char** argv) {
   options.repeat.localization.pose.pixel_sigma_px = args.number("pixel-sigma");
   options.repeat.localization.match_residual_gain = args.number("match-residual-gain");
   options.repeat.localization.pixel_noise_per_keyframe = args.integer("pixel-noise-per-keyframe") != 0;
+  options.repeat.localization.pixel_noise_per_fix = args.integer("pixel-noise-per-fix") != 0;
   options.repeat.localization.pose.plane_normal_sigma_rad = args.number("plane-normal-sigma");
   options.repeat.localization.pose.plane_distance_sigma = args.number("plane-distance-sigma");
   options.repeat.localization.pose.tilt_sigma_rad = args.number("tilt-sigma");
@@ -276,6 +279,7 @@ int main(int argc, char** argv) {
                        {"pixel_sigma_fallback_px", options.repeat.localization.pose.pixel_sigma_px},
                        {"match_residual_gain", options.repeat.localization.match_residual_gain},
                        {"pixel_noise_per_keyframe", options.repeat.localization.pixel_noise_per_keyframe},
+                       {"pixel_noise_per_fix", options.repeat.localization.pixel_noise_per_fix},
                        {"match_residual_px", routeMatchResidual(evaluation->route).value_or(0.0)},
                        {"plane_normal_sigma_rad", options.repeat.localization.pose.plane_normal_sigma_rad},
                        {"plane_distance_sigma", options.repeat.localization.pose.plane_distance_sigma},

@@ -16,6 +16,7 @@ RepeatPipelineOptions readRepeatPipelineOptions(const ros::NodeHandle& nh) {
     r.pose.pixel_sigma_px = readParameter(nh, "pixel_sigma", r.pose.pixel_sigma_px);
     r.match_residual_gain = readParameter(nh, "match_residual_gain", r.match_residual_gain);
     r.pixel_noise_per_keyframe = readParameter(nh, "pixel_noise_per_keyframe", r.pixel_noise_per_keyframe);
+    r.pixel_noise_per_fix = readParameter(nh, "pixel_noise_per_fix", r.pixel_noise_per_fix);
     r.pose.refine = readParameter(nh, "refine", r.pose.refine);
     r.pose.plane_normal_sigma_rad = readParameter(nh, "plane_normal_sigma", r.pose.plane_normal_sigma_rad);
     r.pose.plane_distance_sigma = readParameter(nh, "plane_distance_sigma", r.pose.plane_distance_sigma);
