@@ -107,9 +107,7 @@ Expected<PlanarPoseEstimate> estimatePlanarPoseFromInliers(
   const auto solution = solveFastHd(dlt->H_unscaled, camera, plane);
   if (!solution) return solution.status();
   const Eigen::Matrix3d H = dlt->H_unscaled / dlt->H_unscaled.norm();
-  double sum = 0.0;
-  for (const PointMatch& match : matches) sum += std::pow(transferError(H, match), 2);
-  const double rms = std::sqrt(sum / static_cast<double>(matches.size()));
+  const double rms = rmsTransferError(H, matches);
   const double sigma = options.residual_sigma_gain > 0.0
                            ? std::max(options.residual_sigma_gain * rms, options.pixel_sigma_px)
                            : options.pixel_sigma_px;

@@ -132,6 +132,13 @@ double transferError(const Eigen::Matrix3d& H, const PointMatch& match) {
   return (match.current - applyHomography(H, match.reference)).norm();
 }
 
+double rmsTransferError(const Eigen::Matrix3d& H, const PointMatches& matches) {
+  if (matches.empty()) return 0.0;
+  double sum = 0.0;
+  for (const PointMatch& match : matches) sum += std::pow(transferError(H, match), 2);
+  return std::sqrt(sum / static_cast<double>(matches.size()));
+}
+
 double symmetricTransferErrorSquared(const Eigen::Matrix3d& H, const Eigen::Matrix3d& H_inverse,
                                      const PointMatch& match) {
   return (match.current - applyHomography(H, match.reference)).squaredNorm() +

@@ -245,9 +245,7 @@ Expected<RobustHomographyResult> estimateHomographyRobust(const PointMatches& ma
     const auto refined = refineHomographySampson(best->H, inliers);
     if (!refined) return refined.status();
     best->H = refined->H;
-    double sum = 0.0;
-    for (const auto& m : inliers) sum += std::pow(transferError(best->H, m), 2);
-    best->rms_transfer_error_px = std::sqrt(sum / static_cast<double>(inliers.size()));
+    best->rms_transfer_error_px = rmsTransferError(best->H, inliers);
   }
   return std::move(*best);
 }

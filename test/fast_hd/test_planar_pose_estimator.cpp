@@ -301,7 +301,7 @@ TEST(PlanarPoseEstimator, APixelSigmaFromTheFixsOwnResidualWhereItIsLarger) {
   PlanarPoseEstimatorOptions options;
   options.pixel_sigma_px = 0.2;
   options.common_shift_sigma_px = 0.0;
-  options.refine = false;  // the closed form's covariance is linear in σ²
+  options.refine = false;  // the closed form's covariance: about linear in σ² (and a σ⁴ term)
   const auto configured = estimatePlanarPoseFromInliers(noisy, mathCamera(), kPlane, options);
   options.residual_sigma_gain = 0.75;
   EXPECT_NO_THROW(options.validate());

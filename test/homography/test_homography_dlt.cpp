@@ -119,6 +119,8 @@ TEST(TransferError, ZeroForExactAndSymmetricCounterpart) {
   PointMatch shifted = m;
   shifted.current.x() += 3.0;
   EXPECT_NEAR(transferError(H, shifted), 3.0, 1e-9);
+  EXPECT_NEAR(rmsTransferError(H, {m, shifted}), std::sqrt(4.5), 1e-9);
+  EXPECT_EQ(rmsTransferError(H, {}), 0.0);
 }
 
 TEST(MeanGridTransferDifference, IdenticalIsZeroAndNoOverlapFails) {

@@ -57,6 +57,8 @@ Eigen::Vector2d applyHomography(const Eigen::Matrix3d& H, const Eigen::Vector2d&
 
 // |p_cur − π(H p_ref)| in pixels of the current image.
 double transferError(const Eigen::Matrix3d& H, const PointMatch& match);
+// √(mean transferError²) over `matches` [px]; 0 for none.
+double rmsTransferError(const Eigen::Matrix3d& H, const PointMatches& matches);
 // Symmetric transfer error: |p_cur − π(H p_ref)|² + |p_ref − π(H⁻¹ p_cur)|² (squared pixels).
 double symmetricTransferErrorSquared(const Eigen::Matrix3d& H, const Eigen::Matrix3d& H_inverse,
                                      const PointMatch& match);
